@@ -1,0 +1,60 @@
+#include "cli.h"
+
+#include <cmath>
+#include <filesystem>
+#include <sstream>
+
+#include "core/error.h"
+#include "core/strings.h"
+
+namespace tesswave::cli {
+
+void check_output(const std::string& path, bool overwrite, const std::vector<std::string>& inputs) {
+    namespace fs = std::filesystem;
+    std::error_code ec;
+    for (const auto& in : inputs) {
+        if (!in.empty() && fs::exists(in, ec) && fs::equivalent(in, path, ec)) {
+            throw Error(path + ": output would overwrite an input");
+        }
+    }
+    if (fs::exists(path, ec) && !overwrite) {
+        throw Error(path + ": already exists (use -y to overwrite)");
+    }
+    const fs::path parent = fs::path(path).parent_path();
+    if (!parent.empty() && !fs::is_directory(parent, ec)) {
+        throw Error(path + ": folder " + parent.string() + " does not exist");
+    }
+}
+
+namespace {
+
+std::pair<double, double> parse_pair(const std::string& text, const std::string& option) {
+    std::string t = text;
+    for (char& c : t) c = (c == 'x' || c == 'X' || c == ',') ? ' ' : c;
+    std::istringstream in(t);
+    double a, b;
+    std::string rest;
+    if (!(in >> a >> b) || (in >> rest) || !std::isfinite(a) || !std::isfinite(b) || a <= 0 ||
+        b <= 0) {
+        throw Error(str(option, ": expected WxH with two positive numbers, got \"", text, "\""));
+    }
+    return {a, b};
+}
+
+}  // namespace
+
+std::pair<double, double> parse_size(const std::string& text, const std::string& option) {
+    auto [w, h] = parse_pair(text, option);
+    if (w > 1e7 || h > 1e7) throw Error(str(option, ": ", text, " is larger than 1e7"));
+    return {w, h};
+}
+
+std::pair<int, int> parse_cells(const std::string& text, const std::string& option) {
+    auto [c, r] = parse_pair(text, option);
+    if (c != std::floor(c) || r != std::floor(r) || c > 1e5 || r > 1e5) {
+        throw Error(str(option, ": expected whole numbers CxR up to 100000, got \"", text, "\""));
+    }
+    return {static_cast<int>(c), static_cast<int>(r)};
+}
+
+}  // namespace tesswave::cli

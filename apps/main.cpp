@@ -1,0 +1,43 @@
+// The tesswave command: one subcommand per job, thin over the libraries. Errors become one line
+// on stderr and a non-zero exit code.
+#include <CLI/CLI.hpp>
+#include <cstdio>
+#include <exception>
+#include <new>
+
+#include "cli.h"
+#include "core/error.h"
+
+int main(int argc, char** argv) {
+    CLI::App app{
+        "tesswave: images on deformable planar tessellations, analysed with the lifted bilinear "
+        "wavelet transform (Bertram et al., \"Wavelets on Planar Tesselations\")."};
+    app.set_version_flag("--version", "tesswave 0.1.0");
+    app.require_subcommand(1);
+    tesswave::cli::add_mesh_commands(app);
+    tesswave::cli::add_demo_command(app);
+    try {
+        app.parse(argc, argv);
+    } catch (const CLI::CallForHelp& e) {
+        return app.exit(e);
+    } catch (const CLI::CallForAllHelp& e) {
+        return app.exit(e);
+    } catch (const CLI::CallForVersion& e) {
+        return app.exit(e);
+    } catch (const CLI::RuntimeError& e) {
+        return e.get_exit_code();  // the command printed its own messages
+    } catch (const CLI::ParseError& e) {
+        std::fprintf(stderr, "tesswave: %s (see --help)\n", e.what());
+        return 2;
+    } catch (const tesswave::Error& e) {
+        std::fprintf(stderr, "tesswave: %s\n", e.what());
+        return 1;
+    } catch (const std::bad_alloc&) {
+        std::fprintf(stderr, "tesswave: out of memory\n");
+        return 1;
+    } catch (const std::exception& e) {
+        std::fprintf(stderr, "tesswave: internal error: %s\n", e.what());
+        return 3;
+    }
+    return 0;
+}

@@ -1,0 +1,82 @@
+// The refinement hierarchy T_0, T_1, ..., T_J (DESIGN.md 2.2) with nested numbering: the
+// vertices of T_j are the first n_j vertices of T_{j+1}, followed by one midpoint per edge of T_j
+// and one vertex-average centroid per face of T_j. Topology only; positions live apart
+// (refine_positions), so one hierarchy serves many vertex-position sets.
+//
+// Feature edges are handled by cutting T0 along them: a vertex on a feature curve gets one sample
+// per side (the paper's "double set of coefficients"), so feature sides become boundary curves of
+// the cut mesh and take the 1D rules, ignoring the other side.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "mesh.h"
+
+namespace tesswave {
+
+enum class PointKind : uint8_t {
+    interior,  // 2D lifting rules
+    curve,     // on a boundary or feature curve that continues smoothly: 1D rules
+    corner,    // domain corner, end or junction of curves: never modified
+};
+
+// The topology of one level T_j, with the tables the lifting step T_{j+1} -> T_j reads. Ids are
+// vertex ids of T_j; at level j+1 the midpoint of edge i is sample n_vertices + i and the centroid
+// of face k is sample n_vertices + num_edges() + k.
+struct LevelTopology {
+    int32_t n_vertices = 0;
+    std::vector<int32_t> face_offsets;           // CSR; corners of face k: [face_offsets[k], [k+1])
+    std::vector<int32_t> face_v;                 // corners, in the orientation of the mesh
+    std::vector<int32_t> face_e;                 // edge from corner t to corner t+1
+    std::vector<std::array<int32_t, 2>> edge_v;  // endpoints
+    std::vector<std::array<int32_t, 2>> edge_f;  // faces; edge_f[i][1] == -1 on a curve
+    std::vector<PointKind> kind;                 // per vertex
+    // Vertex stars (CSR over vertices): incident edges and incident faces.
+    std::vector<int32_t> star_e_offsets, star_e, star_f_offsets, star_f;
+    std::vector<std::array<int32_t, 2>> curve_e;  // per vertex: its two curve edges (curve kind)
+
+    int32_t num_edges() const { return static_cast<int32_t>(edge_v.size()); }
+    int32_t num_faces() const { return static_cast<int32_t>(face_offsets.size()) - 1; }
+    int32_t n_next() const { return n_vertices + num_edges() + num_faces(); }
+};
+
+struct LevelCounts {
+    int level = 0;
+    int64_t vertices = 0, edges = 0, faces = 0, boundary_edges = 0;
+};
+
+struct HierarchyOptions {
+    int levels = 5;                   // J
+    int64_t max_samples = 100000000;  // refuse larger hierarchies before allocating
+};
+
+struct Hierarchy {
+    std::vector<LevelTopology> levels;   // T_0 .. T_J (T_0 is the cut mesh)
+    std::vector<int32_t> source_vertex;  // per cut-mesh T0 vertex: the mesh vertex it copies
+
+    int finest() const { return static_cast<int>(levels.size()) - 1; }
+    int32_t num_samples(int level) const { return levels[level].n_vertices; }
+};
+
+// Counts of T_0..T_J of the mesh itself (no feature duplication) by the recurrence of DESIGN.md
+// 2.2, without building anything. For j >= 1 they satisfy |V_j| = 1 + q 4^(j-1) + B 2^(j-1).
+std::vector<LevelCounts> level_counts(const Mesh& mesh, int levels);
+
+// Number of samples of T_J including feature duplicates, without building anything.
+int64_t sample_count(const Mesh& mesh, int levels);
+
+// Approximate bytes build_hierarchy() allocates for a given finest sample count.
+int64_t hierarchy_bytes(int64_t samples);
+
+// Builds the hierarchy of a valid mesh (throws Error for an invalid mesh or when the sample count
+// exceeds options.max_samples, naming the count and memory it would need).
+Hierarchy build_hierarchy(const Mesh& mesh, const HierarchyOptions& options);
+
+// Vertex positions of level `level` (sample order), refined from the T0 mesh vertex positions.
+std::vector<Vec2> refine_positions(const Hierarchy& hierarchy, std::span<const Vec2> mesh_vertices,
+                                   int level);
+
+}  // namespace tesswave

@@ -1,0 +1,55 @@
+#!/usr/bin/env bash
+# The README's commands: installs missing Debian packages, configures, builds, then runs
+#   ./run.sh demo       tesswave demo on the built-in samples (outputs in out/demo)
+#   ./run.sh test       the whole test suite (warnings as errors)
+#   ./run.sh sanitize   the test suite under -fsanitize=address,undefined
+#   ./run.sh bench      the Google Benchmark kernels (Release)
+set -euo pipefail
+cd "$(dirname "$0")"
+job=${1:-demo}
+
+packages=(cmake ninja-build g++ pkg-config clang-format
+          libopencv-dev libopenimageio-dev libgtest-dev libgmock-dev libbenchmark-dev
+          libcli11-dev nlohmann-json3-dev)
+missing=()
+for p in "${packages[@]}"; do
+    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if ((${#missing[@]})); then
+    echo "installing: ${missing[*]}"
+    sudo=""
+    [[ $(id -u) -eq 0 ]] || sudo=sudo
+    $sudo apt-get update -qq
+    DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends \
+        "${missing[@]}" >/dev/null
+fi
+
+build() {  # build DIR [cmake options...]
+    local dir=$1
+    shift
+    cmake -S . -B "$dir" -G Ninja -DCMAKE_BUILD_TYPE=Release "$@" >/dev/null
+    cmake --build "$dir" -j "$(nproc)"
+}
+
+case $job in
+demo)
+    build build
+    ./build/apps/tesswave demo -y -o out/demo
+    ;;
+test)
+    build build -DTESSWAVE_STRICT=ON -DTESSWAVE_BUILD_TESTS=ON
+    ctest --test-dir build --output-on-failure -j "$(nproc)"
+    ;;
+sanitize)
+    build build-asan -DCMAKE_BUILD_TYPE=RelWithDebInfo -DTESSWAVE_SANITIZE=ON -DTESSWAVE_STRICT=ON
+    ctest --test-dir build-asan --output-on-failure -j "$(nproc)"
+    ;;
+bench)
+    build build -DTESSWAVE_BUILD_BENCHMARKS=ON
+    ./build/tests/tesswave_bench "${@:2}"
+    ;;
+*)
+    echo "usage: ./run.sh demo|test|sanitize|bench" >&2
+    exit 2
+    ;;
+esac

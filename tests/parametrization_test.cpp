@@ -1,0 +1,71 @@
+#include "core/parametrization.h"
+
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "samples/sample_meshes.h"
+#include "test_meshes.h"
+
+namespace tesswave {
+namespace {
+
+using testing::uniform;
+
+void expect_round_trip(const Quad& q, std::mt19937_64& rng) {
+    for (int k = 0; k < 200; ++k) {
+        double u = uniform(rng), v = uniform(rng);
+        if (k < 4) u = k & 1, v = k >> 1;  // the corners themselves
+        const UV back = inverse_bilinear(q, bilinear(q, u, v));
+        ASSERT_NEAR(back.u, u, 1e-9);
+        ASSERT_NEAR(back.v, v, 1e-9);
+    }
+}
+
+TEST(Parametrization, inverse_round_trip_on_convex_quads) {
+    std::mt19937_64 rng(9);
+    expect_round_trip({Vec2{0, 0}, {1, 0}, {1, 1}, {0, 1}}, rng);                // square
+    expect_round_trip({Vec2{0, 0}, {4, 1}, {5, 3}, {1, 2}}, rng);                // parallelogram
+    expect_round_trip({Vec2{0, 0}, {6, 0}, {4, 2}, {1, 2}}, rng);                // p00p10 || p01p11
+    expect_round_trip({Vec2{0, 0}, {2, 1}, {2, 3}, {0, 5}}, rng);                // p00p01 || p10p11
+    expect_round_trip({Vec2{10, 10}, {10.5, 10}, {10.5, 300}, {10, 300}}, rng);  // thin
+    int tested = 0;
+    while (tested < 500) {
+        // Random quads with one corner in each quadrant around the origin; the non-convex ones
+        // (a reflex corner is possible) are outside the inverse's contract and skipped.
+        Quad q = {Vec2{-0.2 - uniform(rng), -0.2 - uniform(rng)},
+                  Vec2{0.2 + uniform(rng), -0.2 - uniform(rng)},
+                  Vec2{0.2 + uniform(rng), 0.2 + uniform(rng)},
+                  Vec2{-0.2 - uniform(rng), 0.2 + uniform(rng)}};
+        bool convex = true;
+        for (int r = 0; r < 4; ++r) {
+            convex &= cross(q[(r + 1) % 4] - q[r], q[(r + 2) % 4] - q[(r + 1) % 4]) > 1e-3;
+        }
+        if (!convex) continue;
+        expect_round_trip(q, rng);
+        ++tested;
+    }
+}
+
+TEST(Parametrization, locator_finds_the_quad_and_its_parameters) {
+    const Mesh mesh = samples::paper_t0(249, 251);
+    const Hierarchy h = build_hierarchy(mesh, {.levels = 1});
+    QuadLocator locator(t1_quads(h, mesh.vertices), 249, 251);
+    ASSERT_EQ(locator.quads().size(), 53u);
+    std::mt19937_64 rng(10);
+    for (int k = 0; k < 2000; ++k) {
+        const Vec2 p{249 * uniform(rng), 251 * uniform(rng)};
+        const auto hit = locator.locate(p);
+        ASSERT_TRUE(hit.has_value()) << p.x << "," << p.y;
+        const Vec2 back = bilinear(locator.quads()[hit->quad], hit->uv.u, hit->uv.v);
+        ASSERT_NEAR(back.x, p.x, 1e-8);
+        ASSERT_NEAR(back.y, p.y, 1e-8);
+    }
+    EXPECT_TRUE(locator.locate({0, 0}).has_value());
+    EXPECT_TRUE(locator.locate({249, 251}).has_value());
+    EXPECT_FALSE(locator.locate({-1, 5}).has_value());
+    EXPECT_FALSE(locator.locate({250, 5}).has_value());
+}
+
+}  // namespace
+}  // namespace tesswave
