@@ -63,7 +63,7 @@ LevelTopology cut_mesh(const Mesh& mesh, std::vector<int32_t>& source_vertex) {
     }
 
     LevelTopology t0;
-    t0.face_offsets = mesh.face_offsets;
+    t0.face_offsets.assign(mesh.face_offsets.begin(), mesh.face_offsets.end());
     t0.face_v.resize(incidences);
     source_vertex.resize(mesh.vertices.size());
     std::iota(source_vertex.begin(), source_vertex.end(), 0);
@@ -95,12 +95,12 @@ LevelTopology cut_mesh(const Mesh& mesh, std::vector<int32_t>& source_vertex) {
 
     // Edges of the cut mesh: a feature edge becomes two boundary edges, one per side.
     Mesh cut;
-    cut.face_offsets = t0.face_offsets;
-    cut.face_corners = t0.face_v;
+    cut.face_offsets = mesh.face_offsets;
+    cut.face_corners.assign(t0.face_v.begin(), t0.face_v.end());
     const MeshEdges cut_edges = build_edges(cut);
-    t0.edge_v = cut_edges.vertices;
-    t0.edge_f = cut_edges.faces;
-    t0.face_e = cut_edges.face_edges;
+    t0.edge_v.assign(cut_edges.vertices.begin(), cut_edges.vertices.end());
+    t0.edge_f.assign(cut_edges.faces.begin(), cut_edges.faces.end());
+    t0.face_e.assign(cut_edges.face_edges.begin(), cut_edges.face_edges.end());
     return t0;
 }
 
@@ -180,6 +180,25 @@ void build_stars(LevelTopology& t) {
     for (int32_t k = 0; k < t.num_faces(); ++k) {
         for (int32_t c = t.face_offsets[k]; c < t.face_offsets[k + 1]; ++c) {
             t.star_f[fill[t.face_v[c]]++] = k;
+        }
+    }
+    const int32_t E = t.num_edges();
+    for (int32_t v = 0; v < n; ++v) {
+        if (t.kind[v] == PointKind::curve) {
+            t.v_curve.push_back(v);
+        } else if (t.kind[v] == PointKind::interior) {
+            const int32_t e0 = t.star_e_offsets[v], f0 = t.star_f_offsets[v];
+            if (t.star_e_offsets[v + 1] - e0 == 4 && t.star_f_offsets[v + 1] - f0 == 4) {
+                t.v_regular.push_back(v);
+                std::array<int32_t, 8> nb;
+                for (int r = 0; r < 4; ++r) {
+                    nb[r] = n + t.star_e[e0 + r];
+                    nb[4 + r] = n + E + t.star_f[f0 + r];
+                }
+                t.v_regular_nb.push_back(nb);
+            } else {
+                t.v_irregular.push_back(v);
+            }
         }
     }
 }

@@ -13,6 +13,7 @@
 #include <span>
 #include <vector>
 
+#include "huge_buffer.h"
 #include "mesh.h"
 
 namespace tesswave {
@@ -28,15 +29,20 @@ enum class PointKind : uint8_t {
 // of face k is sample n_vertices + num_edges() + k.
 struct LevelTopology {
     int32_t n_vertices = 0;
-    std::vector<int32_t> face_offsets;           // CSR; corners of face k: [face_offsets[k], [k+1])
-    std::vector<int32_t> face_v;                 // corners, in the orientation of the mesh
-    std::vector<int32_t> face_e;                 // edge from corner t to corner t+1
-    std::vector<std::array<int32_t, 2>> edge_v;  // endpoints
-    std::vector<std::array<int32_t, 2>> edge_f;  // faces; edge_f[i][1] == -1 on a curve
-    std::vector<PointKind> kind;                 // per vertex
+    HugeVector<int32_t> face_offsets;           // CSR; corners of face k: [face_offsets[k], [k+1])
+    HugeVector<int32_t> face_v;                 // corners, in the orientation of the mesh
+    HugeVector<int32_t> face_e;                 // edge from corner t to corner t+1
+    HugeVector<std::array<int32_t, 2>> edge_v;  // endpoints
+    HugeVector<std::array<int32_t, 2>> edge_f;  // faces; edge_f[i][1] == -1 on a curve
+    HugeVector<PointKind> kind;                 // per vertex
     // Vertex stars (CSR over vertices): incident edges and incident faces.
-    std::vector<int32_t> star_e_offsets, star_e, star_f_offsets, star_f;
-    std::vector<std::array<int32_t, 2>> curve_e;  // per vertex: its two curve edges (curve kind)
+    HugeVector<int32_t> star_e_offsets, star_e, star_f_offsets, star_f;
+    HugeVector<std::array<int32_t, 2>> curve_e;  // per vertex: its two curve edges (curve kind)
+    // The vertices of each kind, for the fast lifting kernel: regular interior vertices (4 edges,
+    // 4 faces) with their neighbours as sample ids of level j+1 (4 e then 4 f, in star order),
+    // the other interior vertices, and the curve vertices. Corners appear in none.
+    HugeVector<int32_t> v_regular, v_irregular, v_curve;
+    HugeVector<std::array<int32_t, 8>> v_regular_nb;
 
     int32_t num_edges() const { return static_cast<int32_t>(edge_v.size()); }
     int32_t num_faces() const { return static_cast<int32_t>(face_offsets.size()) - 1; }

@@ -17,8 +17,16 @@
 
 namespace tesswave {
 
+enum class LiftingKernel : uint8_t {
+    fast,       // all channels per stencil, fixed-width tables for regular vertices
+    reference,  // the formulas above, one plane and one point at a time
+};
+
 struct TransformOptions {
     int steps = -1;  // decomposition steps from the finest level; -1 means down to T0
+    // Both kernels evaluate the same expressions in the same order, so their results are
+    // identical to the bit, in floating point as well as in integers (tests pin this).
+    LiftingKernel kernel = LiftingKernel::fast;
 };
 
 void forward_transform(const Hierarchy& hierarchy, std::span<const std::span<float>> planes,

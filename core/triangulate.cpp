@@ -265,7 +265,7 @@ std::vector<Vec2> all_points(double width, double height, std::span<const Vec2> 
     for (Vec2 c : {Vec2{0, 0}, Vec2{width, 0}, Vec2{width, height}, Vec2{0, height}}) {
         if (!std::binary_search(sorted.begin(), sorted.end(), c, lex_less)) out.push_back(c);
     }
-    const double tol = kNearRelative * std::hypot(width, height);
+    const double tol = kNearRelative * std::sqrt(width * width + height * height);
     for (int k = 1; k <= n; ++k) {
         const double x = width * k / (n + 1), y = height * k / (n + 1);
         for (Vec2 q : {Vec2{x, 0}, Vec2{width, y}, Vec2{x, height}, Vec2{0, y}}) {

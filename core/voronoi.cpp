@@ -256,14 +256,16 @@ std::vector<int32_t> weld(std::vector<Vec2>& pos, double w, double h, double tol
 // exactly, then welds near-coincident vertices.
 Mesh assemble(double w, double h, const std::vector<Vec2>& sites) {
     const SiteGrid g = build_grid(w, h, sites);
-    const double diag = std::hypot(w, h);
+    const double diag = std::sqrt(w * w + h * h);
     std::vector<Vec2> pos = {{0, 0}, {w, 0}, {w, h}, {0, h}};
     std::unordered_map<std::array<int32_t, 3>, int32_t, KeyHash> ids;
     ids.reserve(2 * sites.size() + 8);
     std::vector<int32_t> offsets{0}, corners;
     Cell poly, scratch;
-    for (int32_t i = 0; i < static_cast<int32_t>(sites.size()); ++i) {
+    std::vector<int32_t> slot(sites.size());  // cell i has corners[offsets[slot[i]] ...]
+    for (int32_t i : g.ids) {  // bucket order keeps the work and the vertex ids local
         compute_cell(g, sites, i, poly, scratch);
+        slot[i] = static_cast<int32_t>(offsets.size()) - 1;
         for (size_t k = 0; k < poly.size(); ++k) {
             const int32_t in = poly[(k + poly.size() - 1) % poly.size()].out, out = poly[k].out;
             if (in < 0 && out < 0) {
@@ -290,7 +292,7 @@ Mesh assemble(double w, double h, const std::vector<Vec2>& sites) {
     std::vector<int32_t> face;
     for (size_t f = 0; f < sites.size(); ++f) {
         face.clear();
-        for (int32_t k = offsets[f]; k < offsets[f + 1]; ++k) {
+        for (int32_t k = offsets[slot[f]]; k < offsets[slot[f] + 1]; ++k) {
             if (face.empty() || face.back() != remap[corners[k]]) face.push_back(remap[corners[k]]);
         }
         while (face.size() > 1 && face.back() == face.front()) face.pop_back();
@@ -322,7 +324,7 @@ Mesh voronoi_mesh(double width, double height, const VoronoiOptions& options) {
     for (int it = 0; it < options.lloyd_iterations; ++it) {
         const SiteGrid g = build_grid(width, height, sites);
         std::vector<Vec2> moved(sites.size());
-        for (int32_t i = 0; i < static_cast<int32_t>(sites.size()); ++i) {
+        for (int32_t i : g.ids) {
             compute_cell(g, sites, i, poly, scratch);
             const Vec2 c = centroid(poly, sites[i]);
             moved[i] = {std::clamp(c.x, 0.0, width), std::clamp(c.y, 0.0, height)};

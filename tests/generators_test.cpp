@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <limits>
+#include <numbers>
 #include <random>
 #include <string>
 #include <vector>
@@ -221,7 +222,8 @@ TEST(Triangulate, points_on_the_border_and_collinear) {
     expect_empty_circumcircles(mesh);
     std::vector<Vec2> circle;  // many co-circular points
     for (int k = 0; k < 64; ++k) {
-        circle.push_back({50 + 40 * std::cos(k * M_PI / 32), 50 + 40 * std::sin(k * M_PI / 32)});
+        circle.push_back({50 + 40 * std::cos(k * std::numbers::pi / 32),
+                          50 + 40 * std::sin(k * std::numbers::pi / 32)});
     }
     expect_triangulation(triangulate_points(100, 100, circle), circle, "circle");
 }

@@ -83,8 +83,8 @@ TEST(Hierarchy, refined_faces_keep_the_orientation_and_tile_the_domain) {
     refined.width = 100;
     refined.height = 80;
     refined.vertices = p;
-    refined.face_offsets = h.levels[2].face_offsets;
-    refined.face_corners = h.levels[2].face_v;
+    refined.face_offsets.assign(h.levels[2].face_offsets.begin(), h.levels[2].face_offsets.end());
+    refined.face_corners.assign(h.levels[2].face_v.begin(), h.levels[2].face_v.end());
     testing::expect_valid(refined);
 }
 

@@ -14,7 +14,8 @@ namespace {
 
 constexpr int kLevels = 6;  // each T0 face corner spans a 32x32 patch of T_6 quads
 
-void run_roundtrip(benchmark::State& state, const Mesh& mesh) {
+void run_roundtrip(benchmark::State& state, const Mesh& mesh,
+                   LiftingKernel kernel = LiftingKernel::fast) {
     const Hierarchy h = build_hierarchy(mesh, {.levels = kLevels});
     const size_t n = h.num_samples(kLevels);
     std::vector<std::vector<float>> planes(3, std::vector<float>(n));
@@ -24,8 +25,8 @@ void run_roundtrip(benchmark::State& state, const Mesh& mesh) {
     }
     std::vector<std::span<float>> spans(planes.begin(), planes.end());
     for (auto _ : state) {
-        forward_transform(h, spans);
-        inverse_transform(h, spans);
+        forward_transform(h, spans, {.kernel = kernel});
+        inverse_transform(h, spans, {.kernel = kernel});
         benchmark::DoNotOptimize(planes[0].data());
         benchmark::ClobberMemory();
     }
@@ -46,8 +47,21 @@ void BM_mesh_roundtrip_grid(benchmark::State& state) {
     run_roundtrip(state, grid_mesh(4000, 4000, cells, cells));
 }
 
+// The plain reference kernel on the Voronoi mesh, for the fast/reference ratio.
+void BM_mesh_roundtrip_voronoi_reference(benchmark::State& state) {
+    const int sites = static_cast<int>(state.range(0) / (6.0 * 1024));
+    run_roundtrip(state,
+                  voronoi_mesh(4000, 3000, {.sites = sites, .seed = 1, .lloyd_iterations = 1}),
+                  LiftingKernel::reference);
+}
+
 }  // namespace
 
+BENCHMARK(BM_mesh_roundtrip_voronoi_reference)
+    ->Arg(100'000)
+    ->Arg(1'000'000)
+    ->Arg(10'000'000)
+    ->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_mesh_roundtrip_voronoi)
     ->Arg(100'000)
     ->Arg(1'000'000)
