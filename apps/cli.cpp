@@ -28,7 +28,8 @@ void check_output(const std::string& path, bool overwrite, const std::vector<std
 
 namespace {
 
-std::pair<double, double> parse_pair(const std::string& text, const std::string& option) {
+std::pair<double, double> parse_pair(const std::string& text, const std::string& option,
+                                     const char* form) {
     std::string t = text;
     for (char& c : t) c = (c == 'x' || c == 'X' || c == ',') ? ' ' : c;
     std::istringstream in(t);
@@ -36,7 +37,8 @@ std::pair<double, double> parse_pair(const std::string& text, const std::string&
     std::string rest;
     if (!(in >> a >> b) || (in >> rest) || !std::isfinite(a) || !std::isfinite(b) || a <= 0 ||
         b <= 0) {
-        throw Error(str(option, ": expected WxH with two positive numbers, got \"", text, "\""));
+        throw Error(
+            str(option, ": expected ", form, " with two positive numbers, got \"", text, "\""));
     }
     return {a, b};
 }
@@ -44,13 +46,13 @@ std::pair<double, double> parse_pair(const std::string& text, const std::string&
 }  // namespace
 
 std::pair<double, double> parse_size(const std::string& text, const std::string& option) {
-    auto [w, h] = parse_pair(text, option);
+    auto [w, h] = parse_pair(text, option, "WxH");
     if (w > 1e7 || h > 1e7) throw Error(str(option, ": ", text, " is larger than 1e7"));
     return {w, h};
 }
 
 std::pair<int, int> parse_cells(const std::string& text, const std::string& option) {
-    auto [c, r] = parse_pair(text, option);
+    auto [c, r] = parse_pair(text, option, "CxR");
     if (c != std::floor(c) || r != std::floor(r) || c > 1e5 || r > 1e5) {
         throw Error(str(option, ": expected whole numbers CxR up to 100000, got \"", text, "\""));
     }

@@ -110,7 +110,8 @@ void run_demo(const fs::path& dir, bool overwrite) {
     fs::create_directories(dir, ec);
     if (ec) throw Error(str(dir.string(), ": cannot create folder (", ec.message(), ")"));
     Demo demo{dir, {}};
-    const int W = 512, H = 384;
+    // The paper's setup: a 249x251 image, so T_7 of the 20-vertex mesh has ~3.5 samples a pixel.
+    const int W = 249, H = 251;
     std::printf("tesswave demo -> %s\n", dir.string().c_str());
 
     const Image scene = samples::scene_image(W, H);
@@ -145,7 +146,7 @@ void run_demo(const fs::path& dir, bool overwrite) {
                     mesh.num_faces(), mesh.features.size(), static_cast<long long>(v7),
                     v.ok() ? "yes" : v.problems.front().c_str());
         if (!v.ok()) throw Error(name + ": generated an invalid mesh: " + v.problems.front());
-        write_image(draw_mesh(mesh, {.levels = 2, .scale = 1.0}, &scene), demo.out(name + ".png"));
+        write_image(draw_mesh(mesh, {.levels = 2, .scale = 2.0}, &scene), demo.out(name + ".png"));
         report["meshes"].push_back({{"name", name},
                                     {"vertices", mesh.num_vertices()},
                                     {"faces", mesh.num_faces()},

@@ -77,7 +77,7 @@ void add_grid(CLI::App& mesh_cmd) {
 void add_voronoi(CLI::App& mesh_cmd) {
     struct Args {
         int sites = 64;
-        uint64_t seed = 1;
+        int64_t seed = 1;
         int lloyd = 0;
         DomainArgs domain;
         OutputArgs out;
@@ -87,7 +87,13 @@ void add_voronoi(CLI::App& mesh_cmd) {
     cmd->add_option("-n,--sites", args->sites, "Number of sites (cells)")
         ->capture_default_str()
         ->check(CLI::Range(1, 10'000'000));
-    cmd->add_option("--seed", args->seed, "Random seed")->capture_default_str();
+    cmd->add_option("--seed", args->seed, "Random seed (0 or more)")
+        ->capture_default_str()
+        ->check(CLI::Validator(
+            [](const std::string& v) {
+                return v.starts_with('-') ? std::string("must be 0 or more") : std::string();
+            },
+            "SEED"));
     cmd->add_option("--lloyd", args->lloyd, "Lloyd relaxation iterations")
         ->capture_default_str()
         ->check(CLI::Range(0, 1000));
@@ -96,8 +102,10 @@ void add_voronoi(CLI::App& mesh_cmd) {
     cmd->callback([args] {
         check_output(args->out.path, args->out.overwrite, {args->domain.like});
         auto [w, h] = args->domain.resolve();
-        const Mesh mesh = voronoi_mesh(
-            w, h, {.sites = args->sites, .seed = args->seed, .lloyd_iterations = args->lloyd});
+        const Mesh mesh = voronoi_mesh(w, h,
+                                       {.sites = args->sites,
+                                        .seed = static_cast<uint64_t>(args->seed),
+                                        .lloyd_iterations = args->lloyd});
         finish_generated(mesh, args->out, "voronoi");
     });
 }

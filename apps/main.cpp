@@ -14,6 +14,7 @@ int main(int argc, char** argv) {
         "wavelet transform (Bertram et al., \"Wavelets on Planar Tesselations\")."};
     app.set_version_flag("--version", "tesswave 0.1.0");
     app.require_subcommand(1);
+    app.fallthrough(false);
     tesswave::cli::add_mesh_commands(app);
     tesswave::cli::add_demo_command(app);
     try {
