@@ -4,6 +4,7 @@
 #include <unordered_set>
 
 #include "error.h"
+#include "patch_grid.h"
 #include "strings.h"
 #include "validate.h"
 
@@ -183,10 +184,12 @@ void build_stars(LevelTopology& t) {
         }
     }
     const int32_t E = t.num_edges();
+    // Vertices strictly inside a patch (levels with m >= 2) are left to the patch kernel.
     for (int32_t v = 0; v < n; ++v) {
         if (t.kind[v] == PointKind::curve) {
             t.v_curve.push_back(v);
-        } else if (t.kind[v] == PointKind::interior) {
+        } else if (t.kind[v] == PointKind::interior &&
+                   (t.patch_interior.empty() || t.patch_cells < 2 || !t.patch_interior[v])) {
             const int32_t e0 = t.star_e_offsets[v], f0 = t.star_f_offsets[v];
             if (t.star_e_offsets[v + 1] - e0 == 4 && t.star_f_offsets[v + 1] - f0 == 4) {
                 t.v_regular.push_back(v);
@@ -267,7 +270,14 @@ Hierarchy build_hierarchy(const Mesh& mesh, const HierarchyOptions& options) {
     }
     Hierarchy h;
     h.levels.push_back(cut_mesh(mesh, h.source_vertex));
-    for (int j = 0; j < options.levels; ++j) h.levels.push_back(refine(h.levels.back()));
+    if (options.levels >= 1) {
+        h.levels.push_back(refine(h.levels.back()));
+        const detail::PatchSides sides = detail::patch_sides(h.levels[1]);
+        detail::init_patch_grids(h.levels[1], sides);
+        for (int j = 1; j < options.levels; ++j) {
+            h.levels.push_back(detail::refine_patches(h.levels.back(), sides));
+        }
+    }
     for (auto& level : h.levels) build_stars(level);
     return h;
 }

@@ -43,6 +43,18 @@ struct LevelTopology {
     // the other interior vertices, and the curve vertices. Corners appear in none.
     HugeVector<int32_t> v_regular, v_irregular, v_curve;
     HugeVector<std::array<int32_t, 8>> v_regular_nb;
+    // From T1 on, T_j is P patches (the T1 quads) of m x m cells, m = 2^(j-1). Its edges and faces
+    // are numbered patch by patch, row by row, so inside a patch they form regular grids:
+    //   faces:  p m^2 + r m + c, corners (r,c) (r,c+1) (r+1,c+1) (r+1,c), edges bottom, right,
+    //           top, left;
+    //   edges:  first the skeleton (the T1 edges): segment k of T1 edge i is i m + k, counted from
+    //           its first endpoint; then per patch the m(m-1) interior horizontal edges
+    //           (r,c)-(r,c+1), 0<r<m, and the m(m-1) interior vertical ones (r,c)-(r+1,c), 0<c<m.
+    // Grid row r = 0 is the T1 quad's p00-p10 side (v = 0), column c = 0 its p00-p01 side (u = 0).
+    int32_t patch_cells = 0;          // m; 0 on T0
+    HugeVector<int32_t> patch_grid;   // P (m+1)^2 vertex ids, patch-major, row-major
+    HugeVector<int32_t> skeleton;     // per T1 edge, its m+1 vertex ids from its first endpoint
+    HugeVector<char> patch_interior;  // per vertex: strictly inside a patch, off the skeleton
 
     int32_t num_edges() const { return static_cast<int32_t>(edge_v.size()); }
     int32_t num_faces() const { return static_cast<int32_t>(face_offsets.size()) - 1; }

@@ -1,6 +1,6 @@
-// An allocator for large flat arrays (hierarchy tables, transform scratch): blocks of 4 MiB and
-// more are 2 MiB aligned and marked for transparent huge pages before first touch, because the
-// lifting stencils gather across hundreds of MiB and 4 KiB pages make that TLB-bound.
+// An allocator for large flat arrays (the hierarchy's tables): blocks of 4 MiB and more are 2 MiB
+// aligned and marked for transparent huge pages before first touch, because the lifting stencils
+// gather across hundreds of MiB of tables and 4 KiB pages make that TLB-bound.
 #pragma once
 
 #include <sys/mman.h>

@@ -18,7 +18,7 @@
 namespace tesswave {
 
 enum class LiftingKernel : uint8_t {
-    fast,       // all channels per stencil, fixed-width tables for regular vertices
+    fast,       // patch interiors by rows over the patch grids, the rest by tables
     reference,  // the formulas above, one plane and one point at a time
 };
 
