@@ -68,7 +68,7 @@ struct LevelCounts {
 
 struct HierarchyOptions {
     int levels = 5;                   // J
-    int64_t max_samples = 100000000;  // refuse larger hierarchies before allocating
+    int64_t max_samples = 50'000'000;  // ~9 GiB of tables; larger ones are refused up front
 };
 
 struct Hierarchy {
