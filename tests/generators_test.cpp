@@ -13,6 +13,7 @@
 #include "core/triangulate.h"
 #include "core/validate.h"
 #include "core/voronoi.h"
+#include "test_meshes.h"
 
 namespace tesswave {
 namespace {
@@ -41,14 +42,7 @@ int border_vertices(const Mesh& mesh) {
     return count;
 }
 
-std::string error_of(auto&& call) {
-    try {
-        call();
-    } catch (const Error& e) {
-        return e.what();
-    }
-    return "no error";
-}
+using tesswave::testing::error_of;
 
 TEST(Voronoi, valid_for_many_seeds_sizes_and_relaxations) {
     const double w = 320, h = 200;

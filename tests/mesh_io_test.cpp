@@ -4,18 +4,12 @@
 
 #include "core/error.h"
 #include "samples/sample_meshes.h"
+#include "test_meshes.h"
 
 namespace tesswave {
 namespace {
 
-std::string error_of(auto&& call) {
-    try {
-        call();
-    } catch (const Error& e) {
-        return e.what();
-    }
-    return "(no error)";
-}
+using tesswave::testing::error_of;
 
 TEST(MeshIo, json_round_trip_keeps_everything) {
     Mesh mesh = samples::paper_t0_with_features(249.5, 251);

@@ -5,7 +5,9 @@
 
 #include <cstdint>
 #include <random>
+#include <string>
 
+#include "core/error.h"
 #include "core/grid_mesh.h"
 #include "core/validate.h"
 
@@ -29,6 +31,16 @@ inline Mesh deformed_grid(double width, double height, int cols, int rows, doubl
         }
     }
     return mesh;
+}
+
+// The message of the tesswave::Error that `call` throws, or "(no error)".
+inline std::string error_of(auto&& call) {
+    try {
+        call();
+    } catch (const Error& e) {
+        return e.what();
+    }
+    return "(no error)";
 }
 
 inline void expect_valid(const Mesh& mesh) {
