@@ -69,9 +69,13 @@ struct TableStep {
     }
 };
 
-// The fast step: patch interiors by rows (levels with m >= 2), the rest by tables. The order of
-// the three lifting steps is kept across both parts: every f' before any e' that reads it, every
-// e' and f' before any v'.
+// The fast step: patch interiors by rows (levels with m >= 2), the rest by tables. A patch's
+// interior points depend only on its own faces, its interior edges and the skeleton vertices
+// around it, so each patch runs f', e', v' in one go while its rows are in cache:
+//   forward: per patch f', interior e', interior v'; then skeleton e' (its faces are done and its
+//            endpoints untouched), then skeleton v' (every e' and f' is done);
+//   inverse: skeleton v', skeleton e' (they read only primed values and restored skeleton
+//            vertices), then per patch interior v', interior e', f'.
 template <class Rule>
 void fast_step(const LevelTopology& t, const PatchSides& ps, typename Rule::T* x, bool forward) {
     const TableStep<Rule> table{{t, x, t.n_vertices, t.num_edges()}, forward ? 1 : -1};
@@ -90,15 +94,15 @@ void fast_step(const LevelTopology& t, const PatchSides& ps, typename Rule::T* x
         for (int32_t p = 0; p < P; ++p) {
             patch.template faces<1>(p);
             patch.template edges<1>(p);
+            patch.template vertices<1>(p);
         }
         table.edges(skeleton_edges);
-        for (int32_t p = 0; p < P; ++p) patch.template vertices<1>(p);
         table.vertices();
     } else {
-        for (int32_t p = 0; p < P; ++p) patch.template vertices<-1>(p);
         table.vertices();
         table.edges(skeleton_edges);
         for (int32_t p = 0; p < P; ++p) {
+            patch.template vertices<-1>(p);
             patch.template edges<-1>(p);
             patch.template faces<-1>(p);
         }
