@@ -1,0 +1,42 @@
+// Rendering a function on T_j to pixels (DESIGN.md 2.5). Each T1 quad is rasterized (pixel
+// centres, half-open top-left rule, so every pixel belongs to exactly one quad), the pixel's (u,v)
+// comes from the inverse bilinear map, and the value is the bilinear interpolation of the four
+// level-j grid samples around (u m, v m). The result is C0 across quads: on a shared edge both
+// sides interpolate the same edge samples.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "hierarchy.h"
+#include "image.h"
+
+namespace tesswave {
+
+// Where each pixel reads from: a plan for one geometry, level and output size, applied to any
+// number of planes (like the maps of cv::remap).
+struct RenderPlan {
+    int width = 0, height = 0, level = 0;
+    int32_t samples = 0;  // of the level: every plane needs at least this many values
+    std::vector<std::array<int32_t, 4>> ids;  // per pixel: samples (r,c) (r,c+1) (r+1,c) (r+1,c+1)
+    std::vector<std::array<float, 2>> st;     // per pixel: fractions along c and r
+    std::vector<uint8_t> writes;              // per pixel: how many quads claimed it (always 1)
+};
+
+struct RenderOptions {
+    int level = -1;  // -1: the finest level of the hierarchy
+};
+
+// Output pixel (i, k) has its centre at ((i + 1/2) W / width, (k + 1/2) H / height) of the
+// domain [0,W]x[0,H]. Throws Error for sizes out of range.
+RenderPlan plan_render(const Hierarchy& hierarchy, std::span<const Vec2> mesh_vertices,
+                       double domain_width, double domain_height, int width, int height,
+                       const RenderOptions& options = {});
+
+// One output plane per input plane; each input plane holds at least the level's samples.
+Image render(const RenderPlan& plan, std::span<const std::span<const float>> planes,
+             SampleFormat format = SampleFormat::u8);
+
+}  // namespace tesswave

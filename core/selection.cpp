@@ -1,0 +1,91 @@
+#include "selection.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+
+#include "error.h"
+#include "lifting.h"
+#include "strings.h"
+
+namespace tesswave {
+
+std::vector<Band> mesh_bands(const Hierarchy& h, double domain_area, int probes) {
+    const int J = h.finest();
+    std::vector<Band> bands;
+    for (int j = 0; j < J; ++j) {
+        const LevelTopology& t = h.levels[j];
+        const int32_t e0 = t.n_vertices, f0 = e0 + t.num_edges(), f1 = t.n_next();
+        bands.push_back({j, 'e', e0, f0});
+        bands.push_back({j, 'f', f0, f1});
+    }
+    const int32_t n = h.num_samples(J);
+    const double area_per_sample = domain_area / n;
+    std::vector<double> x(n, 0.0);
+    std::span<double> planes[] = {x};
+    for (Band& band : bands) {
+        const int32_t size = band.end - band.begin;
+        const int k = std::min<int32_t>(probes, size);
+        double sum = 0;
+        for (int i = 0; i < k; ++i) {
+            // Probes spread evenly through the band (its points are in mesh order).
+            const int32_t id =
+                band.begin + static_cast<int32_t>((int64_t{2 * i + 1} * size) / (2 * k));
+            std::fill(x.begin(), x.end(), 0.0);
+            x[id] = 1.0;
+            inverse_transform(h, planes);
+            double energy = 0;
+            for (double v : x) energy += v * v;
+            sum += std::sqrt(energy * area_per_sample);
+        }
+        band.norm = k > 0 ? sum / k : 1.0;
+    }
+    return bands;
+}
+
+std::vector<float> band_weights(const std::vector<Band>& bands, int32_t size) {
+    std::vector<float> w(size, 1.0f);
+    for (const Band& b : bands) {
+        std::fill(w.begin() + b.begin, w.begin() + b.end, static_cast<float>(b.norm));
+    }
+    return w;
+}
+
+int64_t keep_count(int64_t details, double percent) {
+    if (!(percent > 0 && percent <= 100)) {
+        throw Error(str("keep: ", percent, " % is outside (0, 100]"));
+    }
+    return std::llround(details * percent / 100.0);
+}
+
+int64_t keep_largest(std::span<const std::span<float>> planes, int32_t first_detail, int64_t count,
+                     std::span<const float> weights) {
+    if (planes.empty()) return 0;
+    const int32_t size = static_cast<int32_t>(planes[0].size());
+    const int32_t details = size - first_detail;
+    count = std::clamp<int64_t>(count, 0, details);
+    std::vector<float> score(details);
+    for (int32_t i = 0; i < details; ++i) {
+        double sq = 0;
+        for (auto plane : planes) sq += double{plane[first_detail + i]} * plane[first_detail + i];
+        const float length = static_cast<float>(std::sqrt(sq));
+        score[i] = weights.empty() ? length : length * weights[first_detail + i];
+    }
+    std::vector<int32_t> order(details);
+    std::iota(order.begin(), order.end(), 0);
+    auto larger = [&](int32_t a, int32_t b) {
+        return score[a] != score[b] ? score[a] > score[b] : a < b;
+    };
+    if (count < details)
+        std::nth_element(order.begin(), order.begin() + count, order.end(), larger);
+    std::vector<char> keep(details, 0);
+    for (int64_t i = 0; i < count; ++i) keep[order[i]] = 1;
+    for (auto plane : planes) {
+        for (int32_t i = 0; i < details; ++i) {
+            if (!keep[i]) plane[first_detail + i] = 0.0f;
+        }
+    }
+    return count;
+}
+
+}  // namespace tesswave
