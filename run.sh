@@ -8,7 +8,7 @@ set -euo pipefail
 cd "$(dirname "$0")"
 job=${1:-demo}
 
-packages=(cmake ninja-build g++ pkg-config clang-format
+packages=(cmake ninja-build g++ pkg-config clang-format ffmpeg
           libopencv-dev libopenimageio-dev libgtest-dev libgmock-dev libbenchmark-dev
           libcli11-dev nlohmann-json3-dev)
 missing=()

@@ -1,10 +1,15 @@
 #include "cli.h"
 
+#include <unistd.h>
+
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <sstream>
 
 #include "core/error.h"
+#include "core/image_io.h"
 #include "core/strings.h"
 
 namespace tesswave::cli {
@@ -24,6 +29,36 @@ void check_output(const std::string& path, bool overwrite, const std::vector<std
     if (!parent.empty() && !fs::is_directory(parent, ec)) {
         throw Error(path + ": folder " + parent.string() + " does not exist");
     }
+}
+
+void prepare_folder(const std::string& dir, bool overwrite) {
+    namespace fs = std::filesystem;
+    std::error_code ec;
+    if (fs::exists(dir, ec) && !fs::is_directory(dir, ec)) {
+        throw Error(dir + ": exists and is not a folder");
+    }
+    if (fs::exists(dir, ec) && !fs::is_empty(dir, ec) && !overwrite) {
+        throw Error(dir + ": folder is not empty (use -y to overwrite its files)");
+    }
+    fs::create_directories(dir, ec);
+    if (ec) throw Error(str(dir, ": cannot create folder (", ec.message(), ")"));
+}
+
+ProgressBar::ProgressBar() : enabled_(::isatty(2) != 0) {}
+
+ProgressBar::~ProgressBar() {
+    if (enabled_ && last_ >= 0) std::fprintf(stderr, "\r%70s\r", "");
+}
+
+void ProgressBar::update(double fraction, const char* stage) {
+    if (!enabled_) return;
+    const int percent = static_cast<int>(std::lround(std::clamp(fraction, 0.0, 1.0) * 100));
+    if (percent == last_) return;
+    last_ = percent;
+    const int filled = percent * 30 / 100;
+    std::fprintf(stderr, "\r[%.*s%.*s] %3d%% %-30s", filled, "##############################",
+                 30 - filled, "..............................", percent, stage);
+    std::fflush(stderr);
 }
 
 namespace {

@@ -5,6 +5,8 @@
 #include <string>
 #include <vector>
 
+#include "core/analysis.h"
+
 namespace tesswave::cli {
 
 // Refuses to overwrite an existing output unless -y was given (as FFmpeg does), and refuses an
@@ -12,12 +14,48 @@ namespace tesswave::cli {
 void check_output(const std::string& path, bool overwrite,
                   const std::vector<std::string>& inputs = {});
 
+// An output folder: created if missing; an existing non-empty one needs -y (its files are then
+// overwritten one by one, each atomically). Refuses a path that is a file.
+void prepare_folder(const std::string& dir, bool overwrite);
+
+// A one-line progress bar on stderr, drawn only when stderr is a terminal.
+class ProgressBar {
+  public:
+    ProgressBar();
+    ~ProgressBar();
+    void update(double fraction, const char* stage);
+
+  private:
+    bool enabled_;
+    int last_ = -1;
+};
+
 // "WxH" or "W x H" into two positive numbers; throws Error naming the option.
 std::pair<double, double> parse_size(const std::string& text, const std::string& option);
 std::pair<int, int> parse_cells(const std::string& text, const std::string& option);
 
+// The analyze job, shared by `tesswave analyze` and the demo.
+struct AnalyzeRequest {
+    std::string image, mesh, grid, output;
+    int voronoi = 0;
+    bool fit_mesh = false;
+    int levels = 0;        // 0: from density
+    double density = 3.5;  // samples per pixel, the paper's figure
+    std::string keep = "10,1,0.1";
+    std::string select = "paper";
+    bool overwrite = false;
+    std::string mesh_description;
+};
+AnalysisResult run_analyze(const AnalyzeRequest& request);
+void print_analysis_table(const AnalysisResult& result);
+
+// The sample images and meshes, written into dir; returns the paths.
+std::vector<std::string> write_samples(const std::string& dir, int width, int height);
+
 // Registers each subcommand on the app.
 void add_mesh_commands(CLI::App& app);
 void add_demo_command(CLI::App& app);
+void add_analyze_command(CLI::App& app);
+void add_samples_command(CLI::App& app);
 
 }  // namespace tesswave::cli

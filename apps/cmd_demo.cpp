@@ -100,15 +100,7 @@ nlohmann::json transform_report(const Mesh& mesh, const Image& image) {
 }
 
 void run_demo(const fs::path& dir, bool overwrite) {
-    std::error_code ec;
-    if (fs::exists(dir, ec) && !fs::is_directory(dir, ec)) {
-        throw Error(dir.string() + ": exists and is not a folder");
-    }
-    if (fs::exists(dir, ec) && !fs::is_empty(dir, ec) && !overwrite) {
-        throw Error(dir.string() + ": folder is not empty (use -y to overwrite its files)");
-    }
-    fs::create_directories(dir, ec);
-    if (ec) throw Error(str(dir.string(), ": cannot create folder (", ec.message(), ")"));
+    prepare_folder(dir.string(), overwrite);
     Demo demo{dir, {}};
     // The paper's setup: a 249x251 image, so T_7 of the 20-vertex mesh has ~3.5 samples a pixel.
     const int W = 249, H = 251;

@@ -16,6 +16,8 @@ int main(int argc, char** argv) {
     app.require_subcommand(1);
     app.fallthrough(false);
     tesswave::cli::add_mesh_commands(app);
+    tesswave::cli::add_analyze_command(app);
+    tesswave::cli::add_samples_command(app);
     tesswave::cli::add_demo_command(app);
     try {
         app.parse(argc, argv);

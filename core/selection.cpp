@@ -58,18 +58,16 @@ int64_t keep_count(int64_t details, double percent) {
     return std::llround(details * percent / 100.0);
 }
 
-int64_t keep_largest(std::span<const std::span<float>> planes, int32_t first_detail, int64_t count,
-                     std::span<const float> weights) {
-    if (planes.empty()) return 0;
-    const int32_t size = static_cast<int32_t>(planes[0].size());
-    const int32_t details = size - first_detail;
+int64_t keep_largest(std::span<const std::span<float>> planes, std::span<const int32_t> ids,
+                     int64_t count, std::span<const float> weights) {
+    const int64_t details = static_cast<int64_t>(ids.size());
     count = std::clamp<int64_t>(count, 0, details);
     std::vector<float> score(details);
-    for (int32_t i = 0; i < details; ++i) {
+    for (int64_t i = 0; i < details; ++i) {
         double sq = 0;
-        for (auto plane : planes) sq += double{plane[first_detail + i]} * plane[first_detail + i];
+        for (auto plane : planes) sq += double{plane[ids[i]]} * plane[ids[i]];
         const float length = static_cast<float>(std::sqrt(sq));
-        score[i] = weights.empty() ? length : length * weights[first_detail + i];
+        score[i] = weights.empty() ? length : length * weights[ids[i]];
     }
     std::vector<int32_t> order(details);
     std::iota(order.begin(), order.end(), 0);
@@ -81,11 +79,19 @@ int64_t keep_largest(std::span<const std::span<float>> planes, int32_t first_det
     std::vector<char> keep(details, 0);
     for (int64_t i = 0; i < count; ++i) keep[order[i]] = 1;
     for (auto plane : planes) {
-        for (int32_t i = 0; i < details; ++i) {
-            if (!keep[i]) plane[first_detail + i] = 0.0f;
+        for (int64_t i = 0; i < details; ++i) {
+            if (!keep[i]) plane[ids[i]] = 0.0f;
         }
     }
     return count;
+}
+
+int64_t keep_largest(std::span<const std::span<float>> planes, int32_t first_detail, int64_t count,
+                     std::span<const float> weights) {
+    if (planes.empty()) return 0;
+    std::vector<int32_t> ids(planes[0].size() - first_detail);
+    std::iota(ids.begin(), ids.end(), first_detail);
+    return keep_largest(planes, ids, count, weights);
 }
 
 }  // namespace tesswave

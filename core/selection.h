@@ -32,6 +32,11 @@ std::vector<Band> mesh_bands(const Hierarchy& hierarchy, double domain_area, int
 int64_t keep_largest(std::span<const std::span<float>> planes, int32_t first_detail, int64_t count,
                      std::span<const float> weights = {});
 
+// The same over an explicit list of detail coefficient indices (fixed-grid layouts, where the
+// base band is not a prefix); weights are indexed like the planes.
+int64_t keep_largest(std::span<const std::span<float>> planes, std::span<const int32_t> details,
+                     int64_t count, std::span<const float> weights = {});
+
 // Per-coefficient weights from bands (1 for coefficients outside every band).
 std::vector<float> band_weights(const std::vector<Band>& bands, int32_t size);
 

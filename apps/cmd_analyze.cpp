@@ -1,0 +1,202 @@
+// tesswave analyze: the paper's Figure 7 experiment on any image, beside fixed-grid wavelets.
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "cli.h"
+#include "core/analysis.h"
+#include "core/error.h"
+#include "core/file_io.h"
+#include "core/grid_mesh.h"
+#include "core/image_io.h"
+#include "core/mesh_draw.h"
+#include "core/mesh_io.h"
+#include "core/sampling.h"
+#include "core/strings.h"
+#include "core/validate.h"
+#include "core/voronoi.h"
+#include "samples/sample_meshes.h"
+
+namespace tesswave::cli {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::vector<double> parse_keep(const std::string& text) {
+    std::vector<double> out;
+    std::stringstream in(text);
+    std::string item;
+    while (std::getline(in, item, ',')) {
+        try {
+            size_t used = 0;
+            const double v = std::stod(item, &used);
+            if (used != item.size() || !(v > 0 && v <= 100)) throw std::invalid_argument(item);
+            out.push_back(v);
+        } catch (const std::exception&) {
+            throw Error(str("--keep: \"", item, "\" is not a percentage in (0, 100]"));
+        }
+    }
+    if (out.empty()) throw Error("--keep: give at least one percentage, e.g. 10,1,0.1");
+    return out;
+}
+
+std::string keep_name(double k) {
+    std::ostringstream s;
+    s << k;
+    return s.str();
+}
+
+nlohmann::json report_json(const AnalyzeRequest& request, const Image& image,
+                           const AnalysisResult& r) {
+    nlohmann::json rows = nlohmann::json::array();
+    for (const auto& row : r.rows) {
+        rows.push_back(
+            {{"method", row.method},
+             {"keep_percent", row.keep_percent},
+             {"kept", row.kept},
+             {"total", row.total},
+             {"psnr", std::isfinite(row.psnr) ? nlohmann::json(row.psnr) : nlohmann::json("inf")},
+             {"ssim", row.ssim}});
+    }
+    return {{"image", request.image},
+            {"width", image.width},
+            {"height", image.height},
+            {"channels", image.channels()},
+            {"mesh", request.mesh_description},
+            {"levels", r.levels},
+            {"samples", r.samples},
+            {"samples_per_pixel", r.samples_per_pixel},
+            {"rows", rows}};
+}
+
+}  // namespace
+
+void print_analysis_table(const AnalysisResult& r) {
+    std::printf("%-12s %8s %12s %10s %8s\n", "method", "keep %", "kept", "PSNR dB", "SSIM");
+    for (const auto& row : r.rows) {
+        std::printf("%-12s %8s %12lld %10.2f %8.4f\n", row.method.c_str(),
+                    keep_name(row.keep_percent).c_str(), static_cast<long long>(row.kept), row.psnr,
+                    row.ssim);
+    }
+}
+
+Mesh analysis_mesh(const AnalyzeRequest& request, const Image& image, std::string& description) {
+    const double W = image.width, H = image.height;
+    Mesh mesh;
+    if (!request.mesh.empty()) {
+        mesh = read_mesh(request.mesh);
+        if (mesh.width != W || mesh.height != H) {
+            if (!request.fit_mesh) {
+                throw Error(str(request.mesh, ": mesh domain ", mesh.width, "x", mesh.height,
+                                " does not match ", request.image, " (", image.width, "x",
+                                image.height, "); use --fit-mesh to scale it"));
+            }
+            const double sx = W / mesh.width, sy = H / mesh.height;
+            for (Vec2& p : mesh.vertices) {
+                p = {p.x == mesh.width ? W : p.x * sx, p.y == mesh.height ? H : p.y * sy};
+            }
+            mesh.width = W;
+            mesh.height = H;
+        }
+        require_valid(mesh, request.mesh);
+        description = request.mesh;
+    } else if (request.voronoi > 0) {
+        mesh = voronoi_mesh(W, H, {.sites = request.voronoi, .seed = 1, .lloyd_iterations = 2});
+        description = str("voronoi ", request.voronoi);
+    } else if (!request.grid.empty()) {
+        auto [c, r] = parse_cells(request.grid, "--grid");
+        mesh = grid_mesh(W, H, c, r);
+        description = "grid " + request.grid;
+    } else {
+        mesh = samples::paper_t0(W, H);
+        description = "paper T0 (20 vertices, 14 faces)";
+    }
+    return mesh;
+}
+
+AnalysisResult run_analyze(const AnalyzeRequest& request) {
+    prepare_folder(request.output, request.overwrite);
+    const Image image = read_image(request.image);
+    AnalyzeRequest req = request;
+    const Mesh mesh = analysis_mesh(request, image, req.mesh_description);
+    AnalysisOptions options;
+    options.keep = parse_keep(request.keep);
+    options.picture_rule = request.select == "l2" ? SelectionRule::l2 : SelectionRule::paper;
+    options.levels = request.levels > 0
+                         ? request.levels
+                         : level_for_density(mesh, image.width * image.height, request.density);
+    ProgressBar bar;
+    options.progress = [&](double done, const char* stage) { bar.update(done, stage); };
+    const AnalysisResult r = analyze_image(image, mesh, options);
+
+    const fs::path dir(request.output);
+    write_image(r.resampled, (dir / "resampled.png").string());
+    write_image(r.coefficients, (dir / "coefficients.png").string());
+    const double scale = std::max(1.0, 600.0 / std::max(image.width, image.height));
+    write_image(
+        draw_mesh(mesh, {.levels = std::min(3, r.levels), .scale = std::round(scale)}, &image),
+        (dir / "mesh.png").string());
+    const std::vector<double> keep = options.keep;
+    for (size_t k = 0; k < keep.size(); ++k) {
+        const std::string tag = keep_name(keep[k]);
+        write_image(r.mesh_images[k], (dir / ("mesh_keep_" + tag + ".png")).string());
+        write_image(r.grid53_images[k], (dir / ("grid53_keep_" + tag + ".png")).string());
+        write_image(r.grid97_images[k], (dir / ("grid97_keep_" + tag + ".png")).string());
+    }
+    write_file_atomic((dir / "report.json").string(), report_json(req, image, r).dump(2) + "\n");
+    return r;
+}
+
+void add_analyze_command(CLI::App& app) {
+    struct Args {
+        AnalyzeRequest request;
+        bool json = false;
+    };
+    auto args = std::make_shared<Args>();
+    AnalyzeRequest& q = args->request;
+    auto* cmd = app.add_subcommand(
+        "analyze",
+        "Put an image on a tessellation, transform it, and reconstruct it from k % of its "
+        "wavelet coefficients, beside fixed-grid 5/3 and 9/7 (the paper's Figure 7)");
+    cmd->add_option("image", q.image, "Image file (PNG, JPEG, TIFF, EXR, PNM, ...)")->required();
+    auto* mesh = cmd->add_option("--mesh", q.mesh, "Tessellation file (.json)");
+    auto* vor = cmd->add_option("--voronoi", q.voronoi, "Use Voronoi cells of N sites")
+                    ->check(CLI::Range(1, 1'000'000));
+    auto* grid = cmd->add_option("--grid", q.grid, "Use a regular grid of CxR cells");
+    mesh->excludes(vor)->excludes(grid);
+    vor->excludes(grid);
+    cmd->add_flag("--fit-mesh", q.fit_mesh, "Scale a --mesh whose domain differs from the image");
+    auto* levels =
+        cmd->add_option("-J,--levels", q.levels, "Finest level J")->check(CLI::Range(1, 12));
+    auto* density =
+        cmd->add_option("--density", q.density, "Choose J for about this many samples per pixel")
+            ->capture_default_str()
+            ->check(CLI::Range(0.01, 100.0));
+    levels->excludes(density);
+    cmd->add_option("--keep", q.keep, "Percentages of detail coefficients to keep")
+        ->capture_default_str();
+    cmd->add_option("--select", q.select, "Rule of the reconstructions written: paper or l2")
+        ->capture_default_str()
+        ->check(CLI::IsMember({"paper", "l2"}));
+    cmd->add_option("-o,--output", q.output, "Output folder")->required();
+    cmd->add_flag("-y,--overwrite", q.overwrite, "Overwrite files in a non-empty folder");
+    cmd->add_flag("--json", args->json, "Print the report as JSON instead of a table");
+    cmd->callback([args] {
+        const AnalysisResult r = run_analyze(args->request);
+        if (args->json) {
+            std::printf(
+                "%s\n",
+                read_file((fs::path(args->request.output) / "report.json").string()).c_str());
+            return;
+        }
+        std::printf("%s: J=%d, %lld samples (%.2f per pixel)\n", args->request.image.c_str(),
+                    r.levels, static_cast<long long>(r.samples), r.samples_per_pixel);
+        print_analysis_table(r);
+        std::printf("outputs in %s\n", args->request.output.c_str());
+    });
+}
+
+}  // namespace tesswave::cli

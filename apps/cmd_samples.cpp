@@ -1,0 +1,69 @@
+// tesswave samples: writes the procedural sample images and meshes the project generates itself.
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+
+#include "cli.h"
+#include "core/error.h"
+#include "core/image_io.h"
+#include "core/mesh_io.h"
+#include "samples/sample_images.h"
+#include "samples/sample_meshes.h"
+
+namespace tesswave::cli {
+
+std::vector<std::string> write_samples(const std::string& dir, int width, int height) {
+    namespace fs = std::filesystem;
+    std::vector<std::string> written;
+    auto out = [&](const std::string& name) {
+        written.push_back((fs::path(dir) / name).string());
+        return written.back();
+    };
+    Image scene = samples::scene_image(width, height);
+    write_image(scene, out("scene.png"));
+    Image grey = make_image(width, height, 1);
+    for (size_t i = 0; i < grey.planes[0].size(); ++i) {
+        grey.planes[0][i] =
+            0.299f * scene.planes[0][i] + 0.587f * scene.planes[1][i] + 0.114f * scene.planes[2][i];
+    }
+    write_image(grey, out("scene_grey.png"));
+    Image deep = scene;
+    deep.format = SampleFormat::u16;
+    write_image(deep, out("scene_16bit.tif"));
+    Image rgba = scene;
+    rgba.planes.push_back(std::vector<float>(scene.planes[0].size()));
+    for (int y = 0; y < height; ++y) {
+        for (int x = 0; x < width; ++x) rgba.at(3, x, y) = 0.25f + 0.75f * x / (width - 1.0f);
+    }
+    write_image(rgba, out("scene_rgba.png"));
+    write_mesh(samples::paper_t0(width, height), out("paper_t0.json"));
+    write_mesh(samples::paper_t0_with_features(width, height), out("paper_features.json"));
+    return written;
+}
+
+void add_samples_command(CLI::App& app) {
+    struct Args {
+        std::string dir;
+        std::string size = "249x251";
+        bool overwrite = false;
+    };
+    auto args = std::make_shared<Args>();
+    auto* cmd = app.add_subcommand(
+        "samples", "Write the procedural sample images (RGB, grey, 16-bit, RGBA) and meshes");
+    cmd->add_option("-o,--output", args->dir, "Output folder")->required();
+    cmd->add_option("--size", args->size, "Image size WxH (the paper's is 249x251)")
+        ->capture_default_str();
+    cmd->add_flag("-y,--overwrite", args->overwrite, "Overwrite files in a non-empty folder");
+    cmd->callback([args] {
+        auto [w, h] = parse_size(args->size, "--size");
+        if (w != static_cast<int>(w) || h != static_cast<int>(h) || w < 2 || h < 2 || w * h > 1e8) {
+            throw Error("--size: need whole pixel counts from 2x2 up to 1e8 pixels");
+        }
+        prepare_folder(args->dir, args->overwrite);
+        for (const auto& f : write_samples(args->dir, static_cast<int>(w), static_cast<int>(h))) {
+            std::printf("%s\n", f.c_str());
+        }
+    });
+}
+
+}  // namespace tesswave::cli
