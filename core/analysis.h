@@ -19,7 +19,7 @@ struct AnalysisOptions {
     std::vector<double> keep = {10, 1, 0.1};            // percentages of the detail coefficients
     SelectionRule picture_rule = SelectionRule::paper;  // the rule of the reconstructions kept
     int grid_levels = 5;                                // fixed-grid decomposition levels
-    std::function<void(double done, const char* stage)> progress;  // optional
+    std::function<void(double done, const char* stage)> progress = {};  // optional
 };
 
 struct AnalysisRow {

@@ -31,7 +31,13 @@ std::string read_file(const std::string& path, int64_t max_bytes) {
     return bytes;
 }
 
-std::string temporary_name(const std::string& path) { return str(path, ".tmp-", ::getpid()); }
+std::string temporary_name(const std::string& path) {
+    // Hidden, beside the target, and with its extension: image writers choose the format by it.
+    const std::filesystem::path p(path);
+    const std::string name =
+        str(".", p.stem().string(), ".tmp-", ::getpid(), p.extension().string());
+    return (p.parent_path() / name).string();
+}
 
 void commit_temporary(const std::string& temporary, const std::string& path) {
     if (std::rename(temporary.c_str(), path.c_str()) != 0) {
