@@ -51,67 +51,90 @@ RenderPlan plan_render(const Hierarchy& h, std::span<const Vec2> mesh_vertices, 
     const LevelTopology& t = h.levels[level];
     const int32_t m = t.patch_cells, side = m + 1;
     const double sx = width / W, sy = height / H;
-    std::vector<Quad> quads = t1_quads(h, mesh_vertices);
+    const std::vector<Quad> quads = t1_quads(h, mesh_vertices);
     RenderPlan plan;
     plan.width = width;
     plan.height = height;
     plan.level = level;
     plan.samples = t.n_vertices;
+    plan.cells = m;
+    plan.grid.assign(t.patch_grid.begin(), t.patch_grid.end());
     const size_t pixels = static_cast<size_t>(width) * height;
-    plan.ids.assign(pixels, {0, 0, 0, 0});
-    plan.st.assign(pixels, {0.0f, 0.0f});
+    plan.pixel.reserve(pixels);
+    plan.cell.reserve(pixels);
+    plan.st.reserve(pixels);
     plan.writes.assign(pixels, 0);
-    for (size_t p = 0; p < quads.size(); ++p) {
-        Quad q = quads[p];
+    plan.quad_offsets.push_back(0);
+    for (Quad q : quads) {
         for (Vec2& c : q) c = {c.x * sx, c.y * sy};
         double y0 = q[0].y, y1 = q[0].y;
         for (const Vec2& c : q) y0 = std::min(y0, c.y), y1 = std::max(y1, c.y);
         const int k0 = std::max(0, static_cast<int>(std::ceil(y0 - 0.5)));
         const int k1 = std::min(height, static_cast<int>(std::ceil(y1 - 0.5)));
-        const int32_t* grid = &t.patch_grid[p * side * side];
         for (int k = k0; k < k1; ++k) {
             int first, last;
             if (!row_span(q, k + 0.5, first, last)) continue;
-            first = std::max(first, 0);
-            last = std::min(last, width);
-            for (int i = first; i < last; ++i) {
+            for (int i = std::max(first, 0); i < std::min(last, width); ++i) {
                 const UV uv = inverse_bilinear(q, {i + 0.5, k + 0.5});
                 const double s = uv.u * m, r = uv.v * m;
                 const int32_t c0 = std::min(static_cast<int32_t>(s), m - 1);
                 const int32_t r0 = std::min(static_cast<int32_t>(r), m - 1);
-                const size_t px = static_cast<size_t>(k) * width + i;
-                plan.ids[px] = {grid[r0 * side + c0], grid[r0 * side + c0 + 1],
-                                grid[(r0 + 1) * side + c0], grid[(r0 + 1) * side + c0 + 1]};
-                plan.st[px] = {static_cast<float>(s - c0), static_cast<float>(r - r0)};
+                const int32_t px = k * width + i;
+                plan.pixel.push_back(px);
+                plan.cell.push_back(r0 * side + c0);
+                plan.st.push_back({static_cast<float>(s - c0), static_cast<float>(r - r0)});
                 ++plan.writes[px];
             }
         }
+        plan.quad_offsets.push_back(static_cast<int32_t>(plan.pixel.size()));
     }
     return plan;
 }
 
 Image render(const RenderPlan& plan, std::span<const std::span<const float>> planes,
              SampleFormat format) {
+    Image out = make_image(plan.width, plan.height, static_cast<int>(planes.size()), format);
+    render_into(plan, planes, out);
+    return out;
+}
+
+void render_into(const RenderPlan& plan, std::span<const std::span<const float>> planes,
+                 Image& out) {
+    if (out.width != plan.width || out.height != plan.height ||
+        out.planes.size() != planes.size()) {
+        throw Error(str("render: output image is ", out.width, "x", out.height, " with ",
+                        out.planes.size(), " planes; the plan is ", plan.width, "x", plan.height,
+                        " for ", planes.size(), " planes"));
+    }
     for (size_t c = 0; c < planes.size(); ++c) {
         if (planes[c].size() < static_cast<size_t>(plan.samples)) {
             throw Error(str("render: plane ", c, " has ", planes[c].size(), " values, level ",
                             plan.level, " has ", plan.samples, " samples"));
         }
     }
-    Image out = make_image(plan.width, plan.height, static_cast<int>(planes.size()), format);
-    const size_t pixels = plan.ids.size();
-    for (size_t c = 0; c < planes.size(); ++c) {
-        const float* __restrict x = planes[c].data();
-        float* __restrict o = out.planes[c].data();
-        for (size_t px = 0; px < pixels; ++px) {
-            const auto& id = plan.ids[px];
-            const float s = plan.st[px][0], r = plan.st[px][1];
-            const float top = x[id[0]] + (x[id[1]] - x[id[0]]) * s;
-            const float bottom = x[id[2]] + (x[id[3]] - x[id[2]]) * s;
-            o[px] = top + (bottom - top) * r;
+    const int32_t side = plan.cells + 1, grid_size = side * side;
+    const size_t channels = planes.size(), quads = plan.quad_offsets.size() - 1;
+    // One quad at a time: its grid values of every channel staged side by side, then each of its
+    // pixels reads its plan entry once and interpolates all channels from the staged grids.
+    std::vector<float> local(grid_size * channels);
+    for (size_t q = 0; q < quads; ++q) {
+        const int32_t* ids = &plan.grid[q * grid_size];
+        for (size_t c = 0; c < channels; ++c) {
+            const float* __restrict x = planes[c].data();
+            float* __restrict g = local.data() + c * grid_size;
+            for (int32_t k = 0; k < grid_size; ++k) g[k] = x[ids[k]];
+        }
+        for (int32_t i = plan.quad_offsets[q]; i < plan.quad_offsets[q + 1]; ++i) {
+            const int32_t cell = plan.cell[i], px = plan.pixel[i];
+            const float s = plan.st[i][0], r = plan.st[i][1];
+            for (size_t c = 0; c < channels; ++c) {
+                const float* v = local.data() + c * grid_size + cell;
+                const float top = v[0] + (v[1] - v[0]) * s;
+                const float bottom = v[side] + (v[side + 1] - v[side]) * s;
+                out.planes[c][px] = top + (bottom - top) * r;
+            }
         }
     }
-    return out;
 }
 
 }  // namespace tesswave

@@ -16,13 +16,18 @@
 namespace tesswave {
 
 // Where each pixel reads from: a plan for one geometry, level and output size, applied to any
-// number of planes (like the maps of cv::remap).
+// number of planes (like the maps of cv::remap). Pixels are grouped by T1 quad, so rendering
+// stages one quad's grid of values at a time and interpolates its pixels from that small buffer.
 struct RenderPlan {
     int width = 0, height = 0, level = 0;
-    int32_t samples = 0;  // of the level: every plane needs at least this many values
-    std::vector<std::array<int32_t, 4>> ids;  // per pixel: samples (r,c) (r,c+1) (r+1,c) (r+1,c+1)
-    std::vector<std::array<float, 2>> st;     // per pixel: fractions along c and r
-    std::vector<uint8_t> writes;              // per pixel: how many quads claimed it (always 1)
+    int32_t samples = 0;                // of the level: every plane needs at least this many values
+    int32_t cells = 0;                  // m, cells a quad side
+    std::vector<int32_t> grid;          // the level's patch grids, (m+1)^2 sample ids a quad
+    std::vector<int32_t> quad_offsets;  // pixels of quad q: [quad_offsets[q], quad_offsets[q+1])
+    std::vector<int32_t> pixel;         // output pixel index
+    std::vector<int32_t> cell;          // r (m+1) + c of the grid cell the pixel lies in
+    std::vector<std::array<float, 2>> st;  // fractions along c and r in that cell
+    std::vector<uint8_t> writes;           // per output pixel: how many quads claimed it (always 1)
 };
 
 struct RenderOptions {
@@ -38,5 +43,9 @@ RenderPlan plan_render(const Hierarchy& hierarchy, std::span<const Vec2> mesh_ve
 // One output plane per input plane; each input plane holds at least the level's samples.
 Image render(const RenderPlan& plan, std::span<const std::span<const float>> planes,
              SampleFormat format = SampleFormat::u8);
+
+// The same into an image of the plan's size with one plane per input plane (reused buffers).
+void render_into(const RenderPlan& plan, std::span<const std::span<const float>> planes,
+                 Image& out);
 
 }  // namespace tesswave

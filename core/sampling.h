@@ -29,6 +29,12 @@ std::vector<std::vector<float>> sample_image(const Image& image, const Hierarchy
                                              std::span<const Vec2> mesh_vertices,
                                              const SampleOptions& options = {});
 
+// The same into caller-owned planes (one per channel, each the level's sample count), so that
+// repeated sampling (video frames) reuses its buffers.
+void sample_image_into(const Image& image, const Hierarchy& hierarchy,
+                       std::span<const Vec2> mesh_vertices, std::span<const std::span<float>> out,
+                       const SampleOptions& options = {});
+
 // The level whose sample count is closest (in ratio) to `density` samples per pixel.
 int level_for_density(const Mesh& mesh, int pixels, double density, int max_level = 12);
 

@@ -1,0 +1,126 @@
+// Sampling and rendering a 1280x720 RGB image at density 2 beside OpenCV's cv::remap (bilinear)
+// on the same image size. Items are image pixels, so every figure is per frame of 1280x720.
+#include <benchmark/benchmark.h>
+
+#include <cmath>
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "core/render.h"
+#include "core/sampling.h"
+#include "core/voronoi.h"
+#include "samples/sample_images.h"
+#include "samples/sample_meshes.h"
+
+namespace tesswave {
+namespace {
+
+constexpr int kWidth = 1280, kHeight = 720;
+
+// A Voronoi mesh whose level 6 is as close as the site count allows to 2 samples per pixel.
+Mesh density_two_mesh() {
+    Mesh best;
+    double best_gap = INFINITY;
+    for (int sites = 200; sites <= 400; sites += 4) {
+        Mesh mesh =
+            voronoi_mesh(kWidth, kHeight, {.sites = sites, .seed = 1, .lloyd_iterations = 2});
+        const double per_pixel = level_counts(mesh, 6)[6].vertices / double(kWidth * kHeight);
+        if (std::abs(per_pixel - 2.0) < best_gap) best = mesh, best_gap = std::abs(per_pixel - 2.0);
+    }
+    return best;
+}
+
+struct Setup {
+    Setup() { cv::setNumThreads(1); }  // single thread, like every other figure here
+    Image image = samples::scene_image(kWidth, kHeight);
+    Mesh mesh = density_two_mesh();
+    Hierarchy h = build_hierarchy(mesh, {.levels = 6});
+    std::vector<Vec2> positions = refine_positions(h, mesh.vertices, 6);
+    std::vector<std::vector<float>> samples = sample_image(image, h, mesh.vertices);
+    RenderPlan plan = plan_render(h, mesh.vertices, kWidth, kHeight, kWidth, kHeight);
+};
+
+const Setup& setup() {
+    static const Setup s;
+    return s;
+}
+
+void finish(benchmark::State& state) {
+    state.SetItemsProcessed(state.iterations() * int64_t{kWidth} * kHeight);
+    state.counters["samples_per_pixel"] =
+        static_cast<double>(setup().samples[0].size()) / (kWidth * kHeight);
+}
+
+// Rendering with a plan made once (the plan is to the mesh what cv::remap's maps are to a warp).
+void BM_render_apply(benchmark::State& state) {
+    const Setup& s = setup();
+    const std::vector<std::span<const float>> planes(s.samples.begin(), s.samples.end());
+    Image out = make_image(kWidth, kHeight, 3, SampleFormat::f32);  // reused, as remap's dst
+    for (auto _ : state) {
+        render_into(s.plan, planes, out);
+        benchmark::DoNotOptimize(out.planes[0].data());
+    }
+    finish(state);
+}
+
+// Making the plan: rasterizing the T1 quads and inverting the bilinear map at every pixel.
+void BM_render_plan(benchmark::State& state) {
+    const Setup& s = setup();
+    for (auto _ : state) {
+        benchmark::DoNotOptimize(
+            plan_render(s.h, s.mesh.vertices, kWidth, kHeight, kWidth, kHeight));
+    }
+    finish(state);
+}
+
+// Sampling at precomputed positions (the positions are to the mesh what maps are to remap).
+void BM_sample_apply(benchmark::State& state) {
+    const Setup& s = setup();
+    for (auto _ : state) benchmark::DoNotOptimize(sample_bilinear(s.image, s.positions));
+    finish(state);
+}
+
+// Sampling including the refinement of the positions and the prefilter decision.
+void BM_sample_full(benchmark::State& state) {
+    const Setup& s = setup();
+    auto out = s.samples;  // reused, as remap's dst
+    const std::vector<std::span<float>> spans(out.begin(), out.end());
+    for (auto _ : state) {
+        sample_image_into(s.image, s.h, s.mesh.vertices, spans);
+        benchmark::DoNotOptimize(out[0].data());
+    }
+    finish(state);
+}
+
+// The peer: cv::remap, bilinear, 3-channel float, with a smooth warp map made once.
+void BM_cv_remap(benchmark::State& state) {
+    const Setup& s = setup();
+    cv::Mat src(kHeight, kWidth, CV_32FC3), dst;
+    for (int y = 0; y < kHeight; ++y) {
+        for (int x = 0; x < kWidth; ++x) {
+            for (int c = 0; c < 3; ++c) src.at<cv::Vec3f>(y, x)[c] = s.image.at(c, x, y);
+        }
+    }
+    cv::Mat map_x(kHeight, kWidth, CV_32FC1), map_y(kHeight, kWidth, CV_32FC1);
+    for (int y = 0; y < kHeight; ++y) {
+        for (int x = 0; x < kWidth; ++x) {
+            map_x.at<float>(y, x) = static_cast<float>(x + 3 * std::sin(y / 40.0));
+            map_y.at<float>(y, x) = static_cast<float>(y + 3 * std::cos(x / 50.0));
+        }
+    }
+    for (auto _ : state) {
+        cv::remap(src, dst, map_x, map_y, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
+        benchmark::DoNotOptimize(dst.data);
+    }
+    state.SetItemsProcessed(state.iterations() * int64_t{kWidth} * kHeight);
+}
+
+}  // namespace
+
+BENCHMARK(BM_cv_remap)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_render_apply)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_render_plan)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_sample_apply)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_sample_full)->Unit(benchmark::kMillisecond);
+
+}  // namespace tesswave
