@@ -31,7 +31,7 @@ void check_output(const std::string& path, bool overwrite, const std::vector<std
     }
 }
 
-void prepare_folder(const std::string& dir, bool overwrite) {
+void check_folder(const std::string& dir, bool overwrite) {
     namespace fs = std::filesystem;
     std::error_code ec;
     if (fs::exists(dir, ec) && !fs::is_directory(dir, ec)) {
@@ -40,6 +40,16 @@ void prepare_folder(const std::string& dir, bool overwrite) {
     if (fs::exists(dir, ec) && !fs::is_empty(dir, ec) && !overwrite) {
         throw Error(dir + ": folder is not empty (use -y to overwrite its files)");
     }
+    const fs::path parent = fs::absolute(dir, ec).parent_path();
+    if (!parent.empty() && !fs::is_directory(parent, ec)) {
+        throw Error(dir + ": folder " + parent.string() + " does not exist");
+    }
+}
+
+void prepare_folder(const std::string& dir, bool overwrite) {
+    namespace fs = std::filesystem;
+    check_folder(dir, overwrite);
+    std::error_code ec;
     fs::create_directories(dir, ec);
     if (ec) throw Error(str(dir, ": cannot create folder (", ec.message(), ")"));
 }

@@ -14,6 +14,9 @@ namespace tesswave::cli {
 void check_output(const std::string& path, bool overwrite,
                   const std::vector<std::string>& inputs = {});
 
+// Checks an output folder without creating it (call before any work, create when writing).
+void check_folder(const std::string& dir, bool overwrite);
+
 // An output folder: created if missing; an existing non-empty one needs -y (its files are then
 // overwritten one by one, each atomically). Refuses a path that is a file.
 void prepare_folder(const std::string& dir, bool overwrite);

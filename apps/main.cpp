@@ -4,9 +4,28 @@
 #include <cstdio>
 #include <exception>
 #include <new>
+#include <string>
 
 #include "cli.h"
 #include "core/error.h"
+
+namespace {
+
+// Messages from libraries (OpenImageIO, libpng) can span lines; the command prints one line.
+std::string one_line(std::string text) {
+    std::string out;
+    for (char c : text) {
+        if (c == '\n' || c == '\r') {
+            if (!out.empty() && out.back() != ' ') out += "; ";
+        } else {
+            out += c;
+        }
+    }
+    while (!out.empty() && (out.back() == ' ' || out.back() == ';')) out.pop_back();
+    return out;
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
     CLI::App app{
@@ -33,13 +52,13 @@ int main(int argc, char** argv) {
         std::fprintf(stderr, "tesswave: %s (see --help)\n", e.what());
         return 2;
     } catch (const tesswave::Error& e) {
-        std::fprintf(stderr, "tesswave: %s\n", e.what());
+        std::fprintf(stderr, "tesswave: %s\n", one_line(e.what()).c_str());
         return 1;
     } catch (const std::bad_alloc&) {
         std::fprintf(stderr, "tesswave: out of memory\n");
         return 1;
     } catch (const std::exception& e) {
-        std::fprintf(stderr, "tesswave: internal error: %s\n", e.what());
+        std::fprintf(stderr, "tesswave: internal error: %s\n", one_line(e.what()).c_str());
         return 3;
     }
     return 0;

@@ -2,15 +2,47 @@
 
 #include <OpenImageIO/imagebuf.h>
 #include <OpenImageIO/imageio.h>
+#include <fcntl.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 #include "error.h"
 #include "file_io.h"
 #include "strings.h"
 
 namespace tesswave {
+namespace {
+
+// libpng reports decode errors on stderr by itself as well as through OpenImageIO; the library
+// never prints, so stderr is pointed at /dev/null while a file is decoded (the error still comes
+// back through OpenImageIO and is reported by the caller).
+class QuietStderr {
+  public:
+    QuietStderr() {
+        std::fflush(stderr);
+        saved_ = ::dup(2);
+        const int null = ::open("/dev/null", O_WRONLY);
+        if (saved_ >= 0 && null >= 0) ::dup2(null, 2);
+        if (null >= 0) ::close(null);
+    }
+    ~QuietStderr() {
+        std::fflush(stderr);
+        if (saved_ >= 0) {
+            ::dup2(saved_, 2);
+            ::close(saved_);
+        }
+    }
+    QuietStderr(const QuietStderr&) = delete;
+    QuietStderr& operator=(const QuietStderr&) = delete;
+
+  private:
+    int saved_ = -1;
+};
+
+}  // namespace
 
 Image make_image(int width, int height, int channels, SampleFormat format) {
     Image image;
@@ -22,6 +54,7 @@ Image make_image(int width, int height, int channels, SampleFormat format) {
 }
 
 Image read_image(const std::string& path, const ImageLimits& limits) {
+    QuietStderr quiet;
     auto in = OIIO::ImageInput::open(path);
     if (!in) {
         std::string why = OIIO::geterror();

@@ -117,6 +117,8 @@ void render_into(const RenderPlan& plan, std::span<const std::span<const float>>
     // One quad at a time: its grid values of every channel staged side by side, then each of its
     // pixels reads its plan entry once and interpolates all channels from the staged grids.
     std::vector<float> local(grid_size * channels);
+    std::vector<float*> outs(channels);
+    for (size_t c = 0; c < channels; ++c) outs[c] = out.planes[c].data();
     for (size_t q = 0; q < quads; ++q) {
         const int32_t* ids = &plan.grid[q * grid_size];
         for (size_t c = 0; c < channels; ++c) {
@@ -127,11 +129,11 @@ void render_into(const RenderPlan& plan, std::span<const std::span<const float>>
         for (int32_t i = plan.quad_offsets[q]; i < plan.quad_offsets[q + 1]; ++i) {
             const int32_t cell = plan.cell[i], px = plan.pixel[i];
             const float s = plan.st[i][0], r = plan.st[i][1];
-            for (size_t c = 0; c < channels; ++c) {
-                const float* v = local.data() + c * grid_size + cell;
+            const float* v = local.data() + cell;
+            for (size_t c = 0; c < channels; ++c, v += grid_size) {
                 const float top = v[0] + (v[1] - v[0]) * s;
                 const float bottom = v[side] + (v[side + 1] - v[side]) * s;
-                out.planes[c][px] = top + (bottom - top) * r;
+                outs[c][px] = top + (bottom - top) * r;
             }
         }
     }
