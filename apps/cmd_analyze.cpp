@@ -45,6 +45,7 @@ std::vector<double> parse_keep(const std::string& text) {
 
 std::string keep_name(double k) {
     std::ostringstream s;
+    s.precision(3);
     s << k;
     return s.str();
 }

@@ -123,6 +123,11 @@ AnalysisResult analyze_image(const Image& image, const Mesh& mesh, const Analysi
     const int grid_levels = std::clamp(
         static_cast<int>(std::floor(std::log2(std::min(image.width, image.height) / 8.0))), 1,
         options.grid_levels);
+    // Two comparisons per fixed-grid wavelet: the same percentage of its own (fewer) detail
+    // coefficients, and the same number of coefficients as the mesh kept ("=n" rows), which is
+    // the like-for-like one when the mesh has more samples than the image has pixels.
+    std::vector<int64_t> mesh_counts;
+    for (double percent : options.keep) mesh_counts.push_back(keep_count(total, percent));
     for (auto [wavelet, name] :
          {std::pair{GridWavelet::cdf53, "grid 5/3"}, std::pair{GridWavelet::cdf97, "grid 9/7"}}) {
         const GridExperiment grid(image, wavelet, grid_levels);
@@ -132,6 +137,11 @@ AnalysisResult analyze_image(const Image& image, const Mesh& mesh, const Analysi
             result.rows.push_back(measure(image, out, name, percent, count, grid.details()));
             (wavelet == GridWavelet::cdf53 ? result.grid53_images : result.grid97_images)
                 .push_back(std::move(out));
+        }
+        for (size_t k = 0; k < options.keep.size(); ++k) {
+            const int64_t count = std::min(mesh_counts[k], grid.details());
+            result.rows.push_back(measure(image, grid.reconstruct(count), str(name, " =n"),
+                                          100.0 * count / grid.details(), count, grid.details()));
         }
     }
     progress(1.0, "done");

@@ -23,7 +23,9 @@ struct AnalysisOptions {
 };
 
 struct AnalysisRow {
-    std::string method;  // "resample", "mesh paper", "mesh l2", "grid 5/3", "grid 9/7", ...
+    // "resample", "mesh paper", "mesh l2", "grid 5/3", "grid 9/7", and "grid 5/3 =n",
+    // "grid 9/7 =n": the fixed grid keeping as many coefficients as the mesh rows of that keep.
+    std::string method;
     double keep_percent = 100;
     int64_t kept = 0;   // detail coefficients kept
     int64_t total = 0;  // detail coefficients in all

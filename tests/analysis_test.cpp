@@ -72,11 +72,13 @@ TEST(Analysis, rows_are_ordered_and_complete) {
     const Image image = samples::scene_image(160, 120);
     const AnalysisResult r =
         analyze_image(image, samples::paper_t0(160, 120), {.levels = 6, .keep = {10, 1}});
-    ASSERT_EQ(r.rows.size(), 1u + 4 + 2 + 2);
+    ASSERT_EQ(r.rows.size(), 1u + 4 + 4 + 4);
     EXPECT_GT(r.rows[1].psnr, r.rows[3].psnr);  // mesh paper 10 % > 1 %
     EXPECT_GE(r.rows[4].psnr, r.rows[3].psnr);  // mesh l2 1 % >= paper 1 %
     EXPECT_EQ(r.rows[5].method, "grid 5/3");
     EXPECT_EQ(r.rows[5].total, 160 * 120 - 20 * 15);  // all but the 3-level LL band (20x15)
+    EXPECT_EQ(r.rows[7].method, "grid 5/3 =n");
+    EXPECT_EQ(r.rows[7].kept, r.rows[1].kept);  // as many coefficients as the mesh kept
     EXPECT_EQ(r.mesh_images.size(), 2u);
     EXPECT_EQ(r.grid97_images.size(), 2u);
 }
