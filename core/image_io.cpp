@@ -55,7 +55,10 @@ Image make_image(int width, int height, int channels, SampleFormat format) {
 
 Image read_image(const std::string& path, const ImageLimits& limits) {
     QuietStderr quiet;
-    auto in = OIIO::ImageInput::open(path);
+    // Alpha stays as stored (straight): no premultiplication on the way in or out.
+    OIIO::ImageSpec config;
+    config.attribute("oiio:UnassociatedAlpha", 1);
+    auto in = OIIO::ImageInput::open(path, &config);
     if (!in) {
         std::string why = OIIO::geterror();
         throw Error(str(path, ": cannot read image (", why.empty() ? "unknown format" : why, ")"));
@@ -104,6 +107,10 @@ void write_image(const Image& image, const std::string& path) {
         type = OIIO::TypeDesc::UINT16;
     }
     OIIO::ImageSpec spec(image.width, image.height, channels, type);
+    if (channels == 2 || channels == 4) {
+        spec.alpha_channel = channels - 1;
+        spec.attribute("oiio:UnassociatedAlpha", 1);
+    }
     const size_t n = static_cast<size_t>(image.width) * image.height;
     std::vector<float> pixels(n * channels);
     const bool clamp = type != OIIO::TypeDesc::FLOAT;
