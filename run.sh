@@ -42,6 +42,10 @@ test)
     ;;
 sanitize)
     build build-asan -DCMAKE_BUILD_TYPE=RelWithDebInfo -DTESSWAVE_SANITIZE=ON -DTESSWAVE_STRICT=ON
+    # Third-party leak suppressions (see the file) need full stacks: libstdc++ has no frame
+    # pointers for the fast unwinder.
+    export LSAN_OPTIONS="suppressions=$PWD/tests/lsan.supp"
+    export ASAN_OPTIONS="fast_unwind_on_malloc=0"
     ctest --test-dir build-asan --output-on-failure --no-tests=error -j "$(nproc)"
     ;;
 bench)
