@@ -48,6 +48,15 @@ sanitize)
     export ASAN_OPTIONS="fast_unwind_on_malloc=0"
     ctest --test-dir build-asan --output-on-failure --no-tests=error -j "$(nproc)"
     ;;
+fuzz)  # ./run.sh fuzz [seconds per target]: libFuzzer runs from the sample meshes
+    DEBIAN_FRONTEND=noninteractive $([[ $(id -u) -eq 0 ]] || echo sudo) apt-get install -y -qq clang >/dev/null
+    CXX=clang++ build build-fuzz -DTESSWAVE_BUILD_FUZZERS=ON -DTESSWAVE_BUILD_TESTS=OFF
+    mkdir -p build-fuzz/corpus
+    ./build-fuzz/apps/tesswave samples -y -o build-fuzz/corpus >/dev/null
+    for t in mesh_fuzz points_fuzz; do
+        ./build-fuzz/tests/$t -max_total_time="${2:-60}" -print_final_stats=1 build-fuzz/corpus
+    done
+    ;;
 bench)
     build build -DTESSWAVE_BUILD_BENCHMARKS=ON
     ./build/tests/tesswave_bench "${@:2}"

@@ -1,5 +1,6 @@
 #include "hierarchy.h"
 
+#include <algorithm>
 #include <numeric>
 #include <unordered_set>
 
@@ -45,20 +46,35 @@ LevelTopology cut_mesh(const Mesh& mesh, std::vector<int32_t>& source_vertex) {
     const size_t incidences = mesh.face_corners.size();
     std::vector<int32_t> parent(incidences);
     std::iota(parent.begin(), parent.end(), 0);
-    auto incidence_of = [&](int32_t f, int32_t v) {
-        auto corners = mesh.face(f);
-        for (size_t t = 0; t < corners.size(); ++t) {
-            if (corners[t] == v) return mesh.face_offsets[f] + static_cast<int32_t>(t);
+    // Where each edge sits in each of its faces: incidence index of the edge's first vertex.
+    // Faces never repeat a vertex (validated), so a vertex's incidence in a face is unique.
+    std::vector<std::array<int32_t, 2>> slot(edges.vertices.size(), {-1, -1});
+    for (int32_t f = 0; f < mesh.num_faces(); ++f) {
+        const int32_t off = mesh.face_offsets[f], d = mesh.face_offsets[f + 1] - off;
+        for (int32_t t = 0; t < d; ++t) {
+            const int32_t e = edges.face_edges[off + t];
+            const int32_t here = off + t, next = off + (t + 1) % d;
+            const int32_t at_first = mesh.face_corners[here] == edges.vertices[e][0] ? here : next;
+            (edges.faces[e][0] == f ? slot[e][0] : slot[e][1]) = at_first;
         }
-        return int32_t{-1};
+    }
+    // The incidence of vertex v in the face holding incidence `i` of edge endpoint 0.
+    auto incidence_of = [&](int32_t i, int32_t v) {
+        if (mesh.face_corners[i] == v) return i;
+        int32_t f = static_cast<int32_t>(
+            std::upper_bound(mesh.face_offsets.begin(), mesh.face_offsets.end(), i) -
+            mesh.face_offsets.begin() - 1);
+        const int32_t off = mesh.face_offsets[f], d = mesh.face_offsets[f + 1] - off;
+        const int32_t next = off + (i - off + 1) % d, prev = off + (i - off + d - 1) % d;
+        return mesh.face_corners[next] == v ? next : prev;
     };
     for (size_t e = 0; e < edges.vertices.size(); ++e) {
         auto [f, g] = edges.faces[e];
         auto [a, b] = edges.vertices[e];
         if (g == -1 || feature_set.count(edge_key(a, b))) continue;
         for (int32_t v : {a, b}) {
-            int32_t r1 = find_root(parent, incidence_of(f, v));
-            int32_t r2 = find_root(parent, incidence_of(g, v));
+            int32_t r1 = find_root(parent, incidence_of(slot[e][0], v));
+            int32_t r2 = find_root(parent, incidence_of(slot[e][1], v));
             if (r1 != r2) parent[std::max(r1, r2)] = std::min(r1, r2);
         }
     }
@@ -211,8 +227,15 @@ struct RawCounts {
 };
 
 std::vector<RawCounts> recurrence(RawCounts c, int levels) {
+    if (levels < 0 || levels > 40) throw Error(str("levels: ", levels, " is outside 0..40"));
     std::vector<RawCounts> out{c};
     for (int j = 0; j < levels; ++j) {
+        // Every count at most quadruples a level; refuse before 64 bits overflow.
+        if (c.vertices + c.edges + c.faces > (int64_t{1} << 60) ||
+            c.corner_sum > (int64_t{1} << 60)) {
+            throw Error(
+                str("level ", j + 1, ": more than 2^62 vertices or edges; pick a lower level"));
+        }
         c = {c.vertices + c.edges + c.faces, 2 * c.edges + c.corner_sum, c.corner_sum,
              4 * c.corner_sum, 2 * c.boundary_edges};
         out.push_back(c);

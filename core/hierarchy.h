@@ -67,7 +67,7 @@ struct LevelCounts {
 };
 
 struct HierarchyOptions {
-    int levels = 5;                   // J
+    int levels = 5;                    // J
     int64_t max_samples = 50'000'000;  // ~9 GiB of tables; larger ones are refused up front
 };
 

@@ -52,15 +52,48 @@ const json& array_field(const json& doc, const char* key, const std::string& nam
     return *it;
 }
 
+// nlohmann::json copies and prints documents recursively; deeper nesting than any mesh or point
+// file needs is refused before parsing, so a hostile file cannot overflow the stack.
+constexpr int kMaxDepth = 64;
+
+void check_depth(std::string_view text, const std::string& name) {
+    int depth = 0;
+    bool in_string = false;
+    for (size_t i = 0; i < text.size(); ++i) {
+        const char c = text[i];
+        if (in_string) {
+            if (c == '\\')
+                ++i;
+            else if (c == '"')
+                in_string = false;
+        } else if (c == '"') {
+            in_string = true;
+        } else if (c == '[' || c == '{') {
+            if (++depth > kMaxDepth) {
+                throw Error(
+                    str(name, ": ", place(text, i), ": nested deeper than ", kMaxDepth, " levels"));
+            }
+        } else if (c == ']' || c == '}') {
+            --depth;
+        }
+    }
+}
+
+json parse_json(std::string_view text, const std::string& name) {
+    check_depth(text, name);
+    try {
+        return json::parse(text);
+    } catch (const json::parse_error& e) {
+        throw Error(str(name, ": ", place(text, e.byte == 0 ? 0 : e.byte - 1), ": not valid JSON"));
+    } catch (const json::exception& e) {  // e.g. a number beyond the range of double
+        throw Error(str(name, ": not valid JSON (", e.what(), ")"));
+    }
+}
+
 }  // namespace
 
 Mesh parse_mesh(std::string_view text, const std::string& name, const MeshLimits& limits) {
-    json doc;
-    try {
-        doc = json::parse(text);
-    } catch (const json::parse_error& e) {
-        throw Error(str(name, ": ", place(text, e.byte == 0 ? 0 : e.byte - 1), ": not valid JSON"));
-    }
+    const json doc = parse_json(text, name);
     if (!doc.is_object()) throw Error(name + ": expected a JSON object with \"domain\", ...");
     Mesh mesh;
     const json& domain = array_field(doc, "domain", name, true);
@@ -148,13 +181,8 @@ std::vector<Vec2> parse_points(std::string_view text, const std::string& name) {
     std::vector<Vec2> points;
     size_t first = text.find_first_not_of(" \t\r\n");
     if (first != std::string_view::npos && text[first] == '[') {
-        json doc;
-        try {
-            doc = json::parse(text);
-        } catch (const json::parse_error& e) {
-            throw Error(
-                str(name, ": ", place(text, e.byte == 0 ? 0 : e.byte - 1), ": not valid JSON"));
-        }
+        const json doc = parse_json(text, name);
+        if (!doc.is_array()) throw Error(name + ": expected a JSON array of [x, y]");
         for (size_t i = 0; i < doc.size(); ++i) {
             const std::string where = str("point ", i);
             if (!doc[i].is_array() || doc[i].size() != 2) {

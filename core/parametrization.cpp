@@ -4,6 +4,9 @@
 #include <cmath>
 #include <numeric>
 
+#include "error.h"
+#include "strings.h"
+
 namespace tesswave {
 
 Vec2 bilinear(const Quad& q, double u, double v) {
@@ -42,7 +45,10 @@ UV inverse_bilinear(const Quad& q, Vec2 p) {
         const double score = outside(roots[r]) + outside(v);
         if (score < best_score) best_u = u, best_v = v, best_score = score;
     }
-    const double u = best_u, v = best_v;
+    // A degenerate quad (zero area) has no unique inverse; the result stays a point of the
+    // unit square rather than NaN.
+    const double u = std::isfinite(best_u) ? best_u : 0.0;
+    const double v = std::isfinite(best_v) ? best_v : 0.0;
     return {u, std::clamp(v, 0.0, 1.0)};
 }
 
@@ -70,6 +76,16 @@ bool inside_convex(const Quad& q, Vec2 p, double eps) {
 
 QuadLocator::QuadLocator(std::vector<Quad> quads, double width, double height)
     : quads_(std::move(quads)), width_(width), height_(height) {
+    if (!(std::isfinite(width) && std::isfinite(height) && width > 0 && height > 0)) {
+        throw Error(str("quad locator: domain ", width, " x ", height, " must be positive"));
+    }
+    for (size_t k = 0; k < quads_.size(); ++k) {
+        for (const Vec2& c : quads_[k]) {
+            if (!std::isfinite(c.x) || !std::isfinite(c.y)) {
+                throw Error(str("quad locator: quad ", k, " has a non-finite corner"));
+            }
+        }
+    }
     const int side = std::max(1, static_cast<int>(std::sqrt(static_cast<double>(quads_.size()))));
     cols_ = rows_ = side;
     cell_w_ = width / cols_;
@@ -79,8 +95,13 @@ QuadLocator::QuadLocator(std::vector<Quad> quads, double width, double height)
         for (Vec2 c : q)
             x0 = std::min(x0, c.x), x1 = std::max(x1, c.x), y0 = std::min(y0, c.y),
             y1 = std::max(y1, c.y);
-        auto cx = [&](double x) { return std::clamp(static_cast<int>(x / cell_w_), 0, cols_ - 1); };
-        auto cy = [&](double y) { return std::clamp(static_cast<int>(y / cell_h_), 0, rows_ - 1); };
+        // Clamped as doubles first: a corner far outside the domain must not overflow an int.
+        auto cx = [&](double x) {
+            return static_cast<int>(std::clamp(x / cell_w_, 0.0, cols_ - 1.0));
+        };
+        auto cy = [&](double y) {
+            return static_cast<int>(std::clamp(y / cell_h_, 0.0, rows_ - 1.0));
+        };
         return std::array<int, 4>{cx(x0), cx(x1), cy(y0), cy(y1)};
     };
     cell_start_.assign(cols_ * rows_ + 1, 0);

@@ -324,9 +324,11 @@ std::string describe_failure(const Mesh& mesh, size_t given, const std::string& 
 
 Mesh triangulate_points(double width, double height, std::span<const Vec2> points,
                         const TriangulateOptions& options) {
-    if (!(std::isfinite(width) && std::isfinite(height) && width > 0 && height > 0)) {
-        throw Error(str("triangulate_points: width and height must be finite and positive, got ",
-                        width, " x ", height));
+    if (!(std::isfinite(width) && std::isfinite(height) && width >= kMinDomain &&
+          height >= kMinDomain && width <= kMaxDomain && height <= kMaxDomain)) {
+        throw Error(str("triangulate_points: domain ", width, " x ", height,
+                        " is outside the supported ", kMinDomain, " .. ", kMaxDomain,
+                        " pixels a side"));
     }
     const int n = options.border_points_per_side;
     if (n < 0 || n > kMaxBorderPoints || points.size() > kMaxPoints) {

@@ -35,6 +35,13 @@ bool check_domain_and_vertices(const Mesh& mesh, Collector& out) {
                     mesh.height));
         return false;
     }
+    // Pixel units: far outside this range the geometric tolerances below lose their meaning.
+    if (mesh.width < kMinDomain || mesh.height < kMinDomain || mesh.width > kMaxDomain ||
+        mesh.height > kMaxDomain) {
+        out.add(str("domain: ", mesh.width, " x ", mesh.height, " is outside the supported ",
+                    kMinDomain, " .. ", kMaxDomain, " pixels a side"));
+        return false;
+    }
     if (mesh.num_faces() == 0) out.add("mesh: has no faces");
     for (int v = 0; v < mesh.num_vertices() && !out.full(); ++v) {
         Vec2 p = mesh.vertices[v];
@@ -50,6 +57,7 @@ bool check_domain_and_vertices(const Mesh& mesh, Collector& out) {
 
 bool check_face_indices(const Mesh& mesh, Collector& out) {
     bool ok = true;
+    std::vector<int32_t> seen_in(mesh.vertices.size(), -1);  // the last face that named a vertex
     for (int f = 0; f < mesh.num_faces() && !out.full(); ++f) {
         auto corners = mesh.face(f);
         if (corners.size() < 3) {
@@ -62,10 +70,11 @@ bool check_face_indices(const Mesh& mesh, Collector& out) {
                 out.add(str("face ", f, ": corner ", i, " refers to vertex ", corners[i],
                             ", which does not exist"));
                 ok = false;
-            } else if (std::find(corners.begin(), corners.begin() + i, corners[i]) !=
-                       corners.begin() + i) {
+            } else if (seen_in[corners[i]] == f) {
                 out.add(str("face ", f, ": vertex ", corners[i], " appears twice"));
                 ok = false;
+            } else {
+                seen_in[corners[i]] = f;
             }
         }
     }
@@ -126,26 +135,37 @@ void check_vertex_use(const Mesh& mesh, Collector& out) {
     for (int v = 0; v < mesh.num_vertices() && !out.full(); ++v) {
         if (!used[v]) out.add(str("vertex ", v, ": unused (no face refers to it)"));
     }
+    // Duplicates within eps: vertices hashed into eps-sized cells, each compared with the 3x3
+    // cells around it, so the check is linear however the vertices are distributed.
     const double eps = 1e-9 * std::hypot(mesh.width, mesh.height);
-    std::vector<int32_t> order(mesh.vertices.size());
-    std::iota(order.begin(), order.end(), 0);
-    std::sort(order.begin(), order.end(),
-              [&](int32_t a, int32_t b) { return mesh.vertices[a].x < mesh.vertices[b].x; });
-    for (size_t i = 0; i < order.size() && !out.full(); ++i) {
-        for (size_t k = i + 1; k < order.size(); ++k) {
-            Vec2 a = mesh.vertices[order[i]];
-            Vec2 b = mesh.vertices[order[k]];
-            if (b.x - a.x > eps) break;
-            if (std::abs(b.y - a.y) <= eps) {
-                out.add(str("vertex ", std::max(order[i], order[k]), ": duplicate of vertex ",
-                            std::min(order[i], order[k]), " at ", fmt_point(a)));
+    auto key = [](int64_t cx, int64_t cy) {
+        return static_cast<uint64_t>(cx) * 0x9E3779B97F4A7C15ull ^ static_cast<uint64_t>(cy);
+    };
+    std::unordered_multimap<uint64_t, int32_t> cells;
+    cells.reserve(mesh.vertices.size());
+    for (int32_t v = 0; v < mesh.num_vertices() && !out.full(); ++v) {
+        const Vec2 p = mesh.vertices[v];
+        const int64_t cx = static_cast<int64_t>(std::floor(p.x / eps));
+        const int64_t cy = static_cast<int64_t>(std::floor(p.y / eps));
+        for (int64_t dy = -1; dy <= 1; ++dy) {
+            for (int64_t dx = -1; dx <= 1; ++dx) {
+                auto [first, last] = cells.equal_range(key(cx + dx, cy + dy));
+                for (auto it = first; it != last; ++it) {
+                    const Vec2 q = mesh.vertices[it->second];
+                    if (std::abs(q.x - p.x) <= eps && std::abs(q.y - p.y) <= eps) {
+                        out.add(str("vertex ", v, ": duplicate of vertex ", it->second, " at ",
+                                    fmt_point(q)));
+                    }
+                }
             }
         }
+        cells.emplace(key(cx, cy), v);
     }
 }
 
-// A T-node is a vertex inside another edge. Vertices are bucketed on a grid so that each edge
-// only looks at the vertices near it.
+// A T-node is a vertex inside another edge. Vertices are bucketed on a grid, and each edge visits
+// only the cells along it (a walk in steps of a cell, with the neighbouring cells), so long edges
+// cost their length in cells, not the area of their bounding box.
 void check_t_nodes(const Mesh& mesh, const MeshEdges& edges, Collector& out) {
     const int side = std::max(1, static_cast<int>(std::sqrt(mesh.vertices.size() / 2.0)));
     const double cw = mesh.width / side, ch = mesh.height / side;
@@ -161,25 +181,36 @@ void check_t_nodes(const Mesh& mesh, const MeshEdges& edges, Collector& out) {
         items[fill[cell(p.y, ch) * side + cell(p.x, cw)]++] = v;
     }
     const double eps = 1e-9 * std::hypot(mesh.width, mesh.height);
+    std::vector<int32_t> stamp(side * side, -1);  // the last edge that visited a cell
     for (size_t e = 0; e < edges.vertices.size() && !out.full(); ++e) {
         auto [ia, ib] = edges.vertices[e];
-        Vec2 a = mesh.vertices[ia], b = mesh.vertices[ib];
-        Vec2 d = b - a;
-        double len2 = dot(d, d);
-        for (int cy = cell(std::min(a.y, b.y) - eps, ch); cy <= cell(std::max(a.y, b.y) + eps, ch);
-             ++cy) {
-            for (int cx = cell(std::min(a.x, b.x) - eps, cw);
-                 cx <= cell(std::max(a.x, b.x) + eps, cw); ++cx) {
-                for (int32_t k = start[cy * side + cx]; k < start[cy * side + cx + 1]; ++k) {
-                    int32_t v = items[k];
-                    if (v == ia || v == ib) continue;
-                    Vec2 p = mesh.vertices[v];
-                    double t = dot(p - a, d) / len2;
-                    if (t <= 0 || t >= 1) continue;
-                    if (norm(p - lerp(a, b, t)) <= eps) {
-                        out.add(
-                            str("vertex ", v, ": T-node, lies inside edge (", ia, ", ", ib, ")"));
-                    }
+        const Vec2 a = mesh.vertices[ia], b = mesh.vertices[ib];
+        const Vec2 d = b - a;
+        const double len2 = dot(d, d);
+        auto visit = [&](int cx, int cy) {
+            const int c = cy * side + cx;
+            if (stamp[c] == static_cast<int32_t>(e)) return;
+            stamp[c] = static_cast<int32_t>(e);
+            for (int32_t k = start[c]; k < start[c + 1]; ++k) {
+                const int32_t v = items[k];
+                if (v == ia || v == ib) continue;
+                const Vec2 p = mesh.vertices[v];
+                const double t = dot(p - a, d) / len2;
+                if (t <= 0 || t >= 1) continue;
+                if (norm(p - lerp(a, b, t)) <= eps) {
+                    out.add(str("vertex ", v, ": T-node, lies inside edge (", ia, ", ", ib, ")"));
+                }
+            }
+        };
+        const int steps =
+            1 + static_cast<int>(std::ceil(std::max(std::abs(d.x) / cw, std::abs(d.y) / ch)));
+        for (int k = 0; k <= steps; ++k) {
+            const Vec2 p = lerp(a, b, static_cast<double>(k) / steps);
+            const int cx = cell(p.x, cw), cy = cell(p.y, ch);
+            for (int dy = -1; dy <= 1; ++dy) {
+                for (int dx = -1; dx <= 1; ++dx) {
+                    const int x = cx + dx, y = cy + dy;
+                    if (x >= 0 && y >= 0 && x < side && y < side) visit(x, y);
                 }
             }
         }
@@ -193,23 +224,19 @@ void check_edges(const Mesh& mesh, const MeshEdges& edges, Collector& out) {
                     "): used by more than two faces"));
     }
     // Two faces of one orientation traverse a shared edge in opposite directions; the same
-    // direction means they overlap.
+    // direction means they overlap. One pass over the corners: the first face per direction.
+    std::vector<std::array<int32_t, 2>> first(edges.vertices.size(), {-1, -1});
     for (int f = 0; f < mesh.num_faces() && !out.full(); ++f) {
         auto corners = mesh.face(f);
         for (size_t i = 0; i < corners.size(); ++i) {
-            int32_t e = edges.face_edges[mesh.face_offsets[f] + i];
-            auto [g0, g1] = edges.faces[e];
-            if (g1 == -1 || g0 != f) continue;
-            if (edges.vertices[e][0] == corners[i]) {
-                auto other = mesh.face(g1);
-                for (size_t k = 0; k < other.size(); ++k) {
-                    if (other[k] == corners[i] &&
-                        other[(k + 1) % other.size()] == corners[(i + 1) % corners.size()]) {
-                        out.add(str("edge (", corners[i], ", ", corners[(i + 1) % corners.size()],
-                                    "): faces ", f, " and ", g1,
-                                    " overlap (both run along it in the same direction)"));
-                    }
-                }
+            const int32_t e = edges.face_edges[mesh.face_offsets[f] + i];
+            const int dir = edges.vertices[e][0] == corners[i] ? 0 : 1;
+            if (first[e][dir] == -1) {
+                first[e][dir] = f;
+            } else if (first[e][dir] != f) {
+                out.add(str("edge (", corners[i], ", ", corners[(i + 1) % corners.size()],
+                            "): faces ", first[e][dir], " and ", f,
+                            " overlap (both run along it in the same direction)"));
             }
         }
     }

@@ -9,6 +9,10 @@
 
 namespace tesswave {
 
+// The supported domain size, in pixels a side.
+constexpr double kMinDomain = 1e-3;
+constexpr double kMaxDomain = 1e8;
+
 struct ValidationReport {
     std::vector<std::string> problems;  // one line each, e.g. "face 3: not convex at corner 2 ..."
     bool ok() const { return problems.empty(); }

@@ -151,19 +151,21 @@ std::vector<Vec2> random_sites(double width, double height, int count, uint64_t 
     auto unit = [&] { return static_cast<double>(rng() >> 11) * 0x1.0p-53; };
     std::vector<Vec2> sites(count);
     for (Vec2& s : sites) s = {width * unit(), height * unit()};
-    // Redraw coincident sites (never seen in practice) until all are distinct.
-    for (bool again = true; again;) {
+    // Redraw coincident sites (never seen in practice) until all are distinct; a bounded number
+    // of rounds, in case the domain holds too few representable points.
+    for (int round = 0, again = 1; again; ++round) {
+        if (round == 64) throw Error("voronoi_mesh: cannot place distinct sites in this domain");
         std::vector<int32_t> order(count);
         std::iota(order.begin(), order.end(), 0);
         auto less = [&](int32_t a, int32_t b) {
             return sites[a].x < sites[b].x || (sites[a].x == sites[b].x && sites[a].y < sites[b].y);
         };
         std::sort(order.begin(), order.end(), less);
-        again = false;
+        again = 0;
         for (size_t k = 1; k < order.size(); ++k) {
             if (!(sites[order[k]] == sites[order[k - 1]])) continue;
             sites[std::max(order[k], order[k - 1])] = {width * unit(), height * unit()};
-            again = true;
+            again = 1;
         }
     }
     return sites;
@@ -308,9 +310,10 @@ Mesh assemble(double w, double h, const std::vector<Vec2>& sites) {
 }  // namespace
 
 Mesh voronoi_mesh(double width, double height, const VoronoiOptions& options) {
-    if (!(std::isfinite(width) && std::isfinite(height) && width > 0 && height > 0)) {
-        throw Error(str("voronoi_mesh: width and height must be finite and positive, got ", width,
-                        " x ", height));
+    if (!(std::isfinite(width) && std::isfinite(height) && width >= kMinDomain &&
+          height >= kMinDomain && width <= kMaxDomain && height <= kMaxDomain)) {
+        throw Error(str("voronoi_mesh: domain ", width, " x ", height, " is outside the supported ",
+                        kMinDomain, " .. ", kMaxDomain, " pixels a side"));
     }
     if (options.sites < 1 || options.sites > kMaxSites) {
         throw Error(str("voronoi_mesh: sites must be in 1..", kMaxSites, ", got ", options.sites));
