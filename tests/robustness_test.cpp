@@ -139,9 +139,10 @@ std::string round_trip_problem(const Mesh& mesh, int max_level, uint64_t seed) {
         forward_transform(h, planes);
         inverse_transform(h, planes);
         for (size_t i = 0; i < n; ++i) {
-            const float worst = std::max({std::abs(r[i] - r0[i]), std::abs(g[i] - g0[i]),
-                                          std::abs(b[i] - b0[i])});
-            if (!(worst <= 255 * 4e-6f)) return str("level ", J, ": float sample ", i, " off by ", worst);
+            const float worst =
+                std::max({std::abs(r[i] - r0[i]), std::abs(g[i] - g0[i]), std::abs(b[i] - b0[i])});
+            if (!(worst <= 255 * 4e-6f))
+                return str("level ", J, ": float sample ", i, " off by ", worst);
         }
         std::span<int32_t> ints[] = {a, c};
         forward_transform_int(h, ints, {.kernel = LiftingKernel::reference});
@@ -157,7 +158,8 @@ std::string round_trip_problem(const Mesh& mesh, int max_level, uint64_t seed) {
             if (!at) continue;
             const UV uv = at->uv;
             if (!(uv.u >= 0 && uv.u <= 1 && uv.v >= 0 && uv.v <= 1)) {
-                return str("locate(", p.x, ", ", p.y, "): uv (", uv.u, ", ", uv.v, ") outside [0,1]");
+                return str("locate(", p.x, ", ", p.y, "): uv (", uv.u, ", ", uv.v,
+                           ") outside [0,1]");
             }
             if (!(norm(bilinear(quads[at->quad], uv.u, uv.v) - p) <= 1e-7 * diag)) {
                 return str("locate(", p.x, ", ", p.y, "): the bilinear map does not return there");
@@ -179,10 +181,12 @@ void check_mesh(const Mesh& mesh, std::string_view input, Tally& tally, int max_
             tally.check_message("validate", problem, input);
         }
         const Outcome rv = outcome_of([&] { require_valid(mesh, "m.json"); });
-        if (rv.kind != Outcome::error) return tally.fail("require_valid did not throw Error", rv.what, input);
+        if (rv.kind != Outcome::error)
+            return tally.fail("require_valid did not throw Error", rv.what, input);
         tally.check_message("require_valid", rv.what, input);
         const Outcome bh = outcome_of([&] { build_hierarchy(mesh, {.levels = 1}); });
-        if (bh.kind != Outcome::error) return tally.fail("build_hierarchy did not throw Error", bh.what, input);
+        if (bh.kind != Outcome::error)
+            return tally.fail("build_hierarchy did not throw Error", bh.what, input);
         const Outcome lc = outcome_of([&] { level_counts(mesh, 3); });
         if (lc.kind == Outcome::other) return tally.fail("level_counts", lc.what, input);
         return;
@@ -248,9 +252,14 @@ std::vector<Mesh> seed_meshes() {
 
 // ---- Text mutations ----
 
-constexpr std::string_view kTokens[] = {
-    "-1",  "1e308", "NaN", "[]", "{}", "\"x\"", ",", "99999999999", "0", "-0", "2147483647",
-    "4e-324", "null", "[", "]", "{", "}", ":", "\"faces\"", "0.5", "18446744073709551616", " "};
+constexpr std::string_view kTokens[] = {"-1",        "1e308",       "NaN",
+                                        "[]",        "{}",          "\"x\"",
+                                        ",",         "99999999999", "0",
+                                        "-0",        "2147483647",  "4e-324",
+                                        "null",      "[",           "]",
+                                        "{",         "}",           ":",
+                                        "\"faces\"", "0.5",         "18446744073709551616",
+                                        " "};
 
 // [begin, end) of every number-like run in the text.
 std::vector<std::pair<size_t, size_t>> number_spans(std::string_view text) {
@@ -284,7 +293,7 @@ std::string mutate_text(std::string text, std::mt19937_64& rng) {
         case 1:  // replace a byte
             text[below(rng, n)] = static_cast<char>(rng());
             break;
-        case 2: {  // delete up to 8 bytes
+        case 2: {                             // delete up to 8 bytes
             const size_t at = below(rng, n);  // draws in separate statements: a fixed order
             text.erase(at, 1 + below(rng, 8));
             break;
@@ -320,7 +329,8 @@ std::string mutate_text(std::string text, std::mt19937_64& rng) {
 
 std::vector<std::vector<int32_t>> faces_of(const Mesh& mesh) {
     std::vector<std::vector<int32_t>> faces;
-    for (int f = 0; f < mesh.num_faces(); ++f) faces.emplace_back(mesh.face(f).begin(), mesh.face(f).end());
+    for (int f = 0; f < mesh.num_faces(); ++f)
+        faces.emplace_back(mesh.face(f).begin(), mesh.face(f).end());
     return faces;
 }
 
@@ -376,7 +386,8 @@ void mutate_mesh(Mesh& mesh, std::mt19937_64& rng) {
             mesh.features.push_back({a, b});
             break;
         case 6:
-            mesh.features.push_back({static_cast<int32_t>(below(rng, nv)), static_cast<int32_t>(below(rng, nv))});
+            mesh.features.push_back(
+                {static_cast<int32_t>(below(rng, nv)), static_cast<int32_t>(below(rng, nv))});
             break;
         case 7:
             if (face.size() > 1) face.erase(face.begin() + static_cast<std::ptrdiff_t>(corner));
@@ -385,7 +396,8 @@ void mutate_mesh(Mesh& mesh, std::mt19937_64& rng) {
             std::swap(v, mesh.vertices[below(rng, nv)]);
             break;
         case 9:  // snap to a domain side
-            (below(rng, 2) ? v.x : v.y) = below(rng, 2) ? 0.0 : (below(rng, 2) ? mesh.width : mesh.height);
+            (below(rng, 2) ? v.x : v.y) =
+                below(rng, 2) ? 0.0 : (below(rng, 2) ? mesh.width : mesh.height);
             break;
         case 10:  // onto an edge (a T-node, or a collapse when v is a or b)
             v = lerp(pa, pb, uniform(rng));
@@ -394,7 +406,8 @@ void mutate_mesh(Mesh& mesh, std::mt19937_64& rng) {
             v = w + diag * std::pow(10.0, -static_cast<double>(below(rng, 16))) * Vec2{1, -1};
             break;
         case 12:  // rotate the corner list: the same face
-            std::rotate(face.begin(), face.begin() + static_cast<std::ptrdiff_t>(corner), face.end());
+            std::rotate(face.begin(), face.begin() + static_cast<std::ptrdiff_t>(corner),
+                        face.end());
             break;
         case 13: {  // shuffle the vertex numbering: the same mesh
             set_faces(mesh, faces);
@@ -445,7 +458,8 @@ TEST(Robustness, every_truncation_of_a_mesh_file_is_a_parse_error) {
         for (size_t k = 0; k < closing; k += 3) {
             const int before = tally.parse_errors;
             check_mesh_text(std::string_view(text).substr(0, k), tally);
-            if (tally.parse_errors == before) tally.fail("truncation", str("prefix of ", k, " bytes was accepted"), text);
+            if (tally.parse_errors == before)
+                tally.fail("truncation", str("prefix of ", k, " bytes was accepted"), text);
         }
     }
     EXPECT_EQ(tally.failures, 0);
@@ -574,9 +588,9 @@ TEST(Robustness, mutated_point_lists) {
         seeds.push_back(lines);
         seeds.push_back(json + "]");
     }
-    seeds.push_back("10 10\n10 20\n10 30\n10 40\n");             // collinear
-    seeds.push_back("25 25\n75 25\n75 75\n25 75\n50 50\n");      // co-circular, and its centre
-    seeds.push_back("0 0\n100 100\n0 50\n50 0\n100 37.5\n");      // on corners and sides
+    seeds.push_back("10 10\n10 20\n10 30\n10 40\n");          // collinear
+    seeds.push_back("25 25\n75 25\n75 75\n25 75\n50 50\n");   // co-circular, and its centre
+    seeds.push_back("0 0\n100 100\n0 50\n50 0\n100 37.5\n");  // on corners and sides
     for (const std::string& seed : seeds) {
         tally.original = seed;
         check_points_text(seed, 0, tally);
@@ -607,7 +621,8 @@ TEST(Robustness, degenerate_point_sets) {
     std::vector<Vec2> grid, circle, line;
     for (int i = 0; i < 49; ++i) grid.push_back({10.0 + 10 * (i % 7), 10.0 + 10 * (i / 7)});
     for (int i = 0; i < 24; ++i) {
-        circle.push_back({50 + 40 * std::cos(i * std::numbers::pi / 12), 50 + 40 * std::sin(i * std::numbers::pi / 12)});
+        circle.push_back({50 + 40 * std::cos(i * std::numbers::pi / 12),
+                          50 + 40 * std::sin(i * std::numbers::pi / 12)});
     }
     for (int i = 1; i < 40; ++i) line.push_back({2.5 * i, 2.5 * i});
     sets.push_back(grid);
@@ -627,12 +642,15 @@ TEST(Robustness, degenerate_point_sets) {
         }
     }
     for (int border : {-1, 1 << 30}) {
-        const Outcome t = outcome_of([&] { triangulate_points(100, 100, {}, {.border_points_per_side = border}); });
-        if (t.kind != Outcome::error) tally.fail("border_points_per_side", str(border, " accepted"), "");
+        const Outcome t = outcome_of(
+            [&] { triangulate_points(100, 100, {}, {.border_points_per_side = border}); });
+        if (t.kind != Outcome::error)
+            tally.fail("border_points_per_side", str(border, " accepted"), "");
     }
     for (double size : {0.0, -1.0, kNaN, kInf}) {
         const Outcome t = outcome_of([&] { triangulate_points(size, 100, {}); });
-        if (t.kind != Outcome::error) tally.fail("triangulate_points domain", str(size, " accepted"), "");
+        if (t.kind != Outcome::error)
+            tally.fail("triangulate_points domain", str(size, " accepted"), "");
     }
     tally.report();
 }
@@ -657,10 +675,12 @@ TEST(Robustness, generator_and_transform_options) {
     for (double s : {1e-6, 1e6}) {
         for (int sites : {1, 2, 5, 40}) {
             Mesh mesh;
-            const Outcome o = outcome_of([&] { mesh = voronoi_mesh(s, 0.5 * s, {.sites = sites, .lloyd_iterations = 1}); });
+            const Outcome o = outcome_of(
+                [&] { mesh = voronoi_mesh(s, 0.5 * s, {.sites = sites, .lloyd_iterations = 1}); });
             if (o.kind == Outcome::other) tally.fail("voronoi_mesh", o.what, str(s, " ", sites));
             if (o.kind == Outcome::error) ++tally.invalid;
-            if (o.kind == Outcome::returned) check_mesh(mesh, str("voronoi ", s, " ", sites), tally, 2);
+            if (o.kind == Outcome::returned)
+                check_mesh(mesh, str("voronoi ", s, " ", sites), tally, 2);
         }
     }
     const Mesh mesh = samples::paper_t0_with_features(100, 80);
@@ -822,11 +842,17 @@ TEST(Robustness, big_faces_are_not_quadratic) {
 // QuadLocator divides by the domain size and casts to int without checking either.
 TEST(Robustness, quad_locator_refuses_a_degenerate_domain) {
     const Quad unit{Vec2{0, 0}, Vec2{1, 0}, Vec2{1, 1}, Vec2{0, 1}};
-    expect_error_or_return_in_child([&] { QuadLocator({unit, unit, unit, unit}, 0, 0).locate({0, 0}); });
-    expect_error_or_return_in_child([&] { QuadLocator({unit, unit, unit, unit}, kNaN, 1).locate({0, 0}); });
+    expect_error_or_return_in_child([&] {
+        QuadLocator({unit, unit, unit, unit}, 0, 0).locate({0, 0});
+    });
+    expect_error_or_return_in_child([&] {
+        QuadLocator({unit, unit, unit, unit}, kNaN, 1).locate({0, 0});
+    });
     const Quad huge{Vec2{-1e300, 0}, Vec2{1e300, 0}, Vec2{1, 1e300}, Vec2{0, 1}};
     const Quad nan{Vec2{kNaN, 0}, Vec2{1, 0}, Vec2{1, 1}, Vec2{0, 1}};
-    expect_error_or_return_in_child([&] { QuadLocator({huge, nan, unit, unit}, 1, 1).locate({0.5, 0.5}); });
+    expect_error_or_return_in_child([&] {
+        QuadLocator({huge, nan, unit, unit}, 1, 1).locate({0.5, 0.5});
+    });
 }
 
 // The header promises results clamped to [0,1]; degenerate quads give NaN.

@@ -56,7 +56,8 @@ void round_trips(const Mesh& mesh) {
         inverse_transform_int(h, ap);
         if (a != a0) fail("the integer transform does not reconstruct exactly");
         for (size_t i = 0; i < n; ++i) {
-            if (!(std::abs(f[i] - f0[i]) <= 1e-3f)) fail("the float transform does not reconstruct");
+            if (!(std::abs(f[i] - f0[i]) <= 1e-3f))
+                fail("the float transform does not reconstruct");
         }
     }
 }
