@@ -183,7 +183,7 @@ void check_t_nodes(const Mesh& mesh, const MeshEdges& edges, Collector& out) {
     const double eps = 1e-9 * std::hypot(mesh.width, mesh.height);
     std::vector<int32_t> stamp(side * side, -1);  // the last edge that visited a cell
     for (size_t e = 0; e < edges.vertices.size() && !out.full(); ++e) {
-        auto [ia, ib] = edges.vertices[e];
+        const int32_t ia = edges.vertices[e][0], ib = edges.vertices[e][1];
         const Vec2 a = mesh.vertices[ia], b = mesh.vertices[ib];
         const Vec2 d = b - a;
         const double len2 = dot(d, d);
