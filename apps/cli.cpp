@@ -40,9 +40,13 @@ void check_folder(const std::string& dir, bool overwrite) {
     if (fs::exists(dir, ec) && !fs::is_empty(dir, ec) && !overwrite) {
         throw Error(dir + ": folder is not empty (use -y to overwrite its files)");
     }
-    const fs::path parent = fs::absolute(dir, ec).parent_path();
-    if (!parent.empty() && !fs::is_directory(parent, ec)) {
-        throw Error(dir + ": folder " + parent.string() + " does not exist");
+    // Missing parents are created when writing (like mkdir -p); a parent that is a file fails.
+    for (fs::path p = fs::absolute(dir, ec).parent_path(); !p.empty() && p != p.parent_path();
+         p = p.parent_path()) {
+        if (fs::exists(p, ec)) {
+            if (!fs::is_directory(p, ec)) throw Error(dir + ": " + p.string() + " is not a folder");
+            break;
+        }
     }
 }
 
