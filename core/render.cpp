@@ -60,11 +60,10 @@ RenderPlan plan_render(const Hierarchy& h, std::span<const Vec2> mesh_vertices, 
     plan.cells = m;
     plan.grid.assign(t.patch_grid.begin(), t.patch_grid.end());
     const size_t pixels = static_cast<size_t>(width) * height;
-    plan.pixel.reserve(pixels);
     plan.cell.reserve(pixels);
     plan.st.reserve(pixels);
     plan.writes.assign(pixels, 0);
-    plan.quad_offsets.push_back(0);
+    plan.quad_runs.push_back(0);
     for (Quad q : quads) {
         for (Vec2& c : q) c = {c.x * sx, c.y * sy};
         double y0 = q[0].y, y1 = q[0].y;
@@ -74,19 +73,26 @@ RenderPlan plan_render(const Hierarchy& h, std::span<const Vec2> mesh_vertices, 
         for (int k = k0; k < k1; ++k) {
             int first, last;
             if (!row_span(q, k + 0.5, first, last)) continue;
-            for (int i = std::max(first, 0); i < std::min(last, width); ++i) {
+            first = std::max(first, 0);
+            last = std::min(last, width);
+            if (last <= first) continue;
+            plan.run_start.push_back(k * width + first);
+            plan.run_length.push_back(last - first);
+            for (int i = first; i < last; ++i) {
                 const UV uv = inverse_bilinear(q, {i + 0.5, k + 0.5});
                 const double s = uv.u * m, r = uv.v * m;
                 const int32_t c0 = std::min(static_cast<int32_t>(s), m - 1);
                 const int32_t r0 = std::min(static_cast<int32_t>(r), m - 1);
                 const int32_t px = k * width + i;
-                plan.pixel.push_back(px);
                 plan.cell.push_back(r0 * side + c0);
-                plan.st.push_back({static_cast<float>(s - c0), static_cast<float>(r - r0)});
+                auto fixed = [](double f) {
+                    return static_cast<uint16_t>(std::min(65535.0, std::round(f * 65536.0)));
+                };
+                plan.st.push_back({fixed(s - c0), fixed(r - r0)});
                 ++plan.writes[px];
             }
         }
-        plan.quad_offsets.push_back(static_cast<int32_t>(plan.pixel.size()));
+        plan.quad_runs.push_back(static_cast<int32_t>(plan.run_start.size()));
     }
     return plan;
 }
@@ -113,12 +119,14 @@ void render_into(const RenderPlan& plan, std::span<const std::span<const float>>
         }
     }
     const int32_t side = plan.cells + 1, grid_size = side * side;
-    const size_t channels = planes.size(), quads = plan.quad_offsets.size() - 1;
-    // One quad at a time: its grid values of every channel staged side by side, then each of its
-    // pixels reads its plan entry once and interpolates all channels from the staged grids.
+    const size_t channels = planes.size(), quads = plan.quad_runs.size() - 1;
+    // One quad at a time: its grid values of every channel staged side by side, then its pixel
+    // runs read their plan entries once and interpolate all channels from the staged grids.
     std::vector<float> local(grid_size * channels);
     std::vector<float*> outs(channels);
     for (size_t c = 0; c < channels; ++c) outs[c] = out.planes[c].data();
+    constexpr float kUnit = 1.0f / 65536.0f;
+    size_t i = 0;  // plan entry of the next pixel
     for (size_t q = 0; q < quads; ++q) {
         const int32_t* ids = &plan.grid[q * grid_size];
         for (size_t c = 0; c < channels; ++c) {
@@ -126,14 +134,16 @@ void render_into(const RenderPlan& plan, std::span<const std::span<const float>>
             float* __restrict g = local.data() + c * grid_size;
             for (int32_t k = 0; k < grid_size; ++k) g[k] = x[ids[k]];
         }
-        for (int32_t i = plan.quad_offsets[q]; i < plan.quad_offsets[q + 1]; ++i) {
-            const int32_t cell = plan.cell[i], px = plan.pixel[i];
-            const float s = plan.st[i][0], r = plan.st[i][1];
-            const float* v = local.data() + cell;
-            for (size_t c = 0; c < channels; ++c, v += grid_size) {
-                const float top = v[0] + (v[1] - v[0]) * s;
-                const float bottom = v[side] + (v[side + 1] - v[side]) * s;
-                outs[c][px] = top + (bottom - top) * r;
+        for (int32_t run = plan.quad_runs[q]; run < plan.quad_runs[q + 1]; ++run) {
+            const int32_t start = plan.run_start[run], length = plan.run_length[run];
+            for (int32_t n = 0; n < length; ++n, ++i) {
+                const float s = plan.st[i][0] * kUnit, r = plan.st[i][1] * kUnit;
+                const float* v = local.data() + plan.cell[i];
+                for (size_t c = 0; c < channels; ++c, v += grid_size) {
+                    const float top = v[0] + (v[1] - v[0]) * s;
+                    const float bottom = v[side] + (v[side + 1] - v[side]) * s;
+                    outs[c][start + n] = top + (bottom - top) * r;
+                }
             }
         }
     }

@@ -20,14 +20,18 @@ namespace tesswave {
 // stages one quad's grid of values at a time and interpolates its pixels from that small buffer.
 struct RenderPlan {
     int width = 0, height = 0, level = 0;
-    int32_t samples = 0;                // of the level: every plane needs at least this many values
-    int32_t cells = 0;                  // m, cells a quad side
-    std::vector<int32_t> grid;          // the level's patch grids, (m+1)^2 sample ids a quad
-    std::vector<int32_t> quad_offsets;  // pixels of quad q: [quad_offsets[q], quad_offsets[q+1])
-    std::vector<int32_t> pixel;         // output pixel index
-    std::vector<int32_t> cell;          // r (m+1) + c of the grid cell the pixel lies in
-    std::vector<std::array<float, 2>> st;  // fractions along c and r in that cell
-    std::vector<uint8_t> writes;           // per output pixel: how many quads claimed it (always 1)
+    int32_t samples = 0;        // of the level: every plane needs at least this many values
+    int32_t cells = 0;          // m, cells a quad side
+    std::vector<int32_t> grid;  // the level's patch grids, (m+1)^2 sample ids a quad
+    // Pixels of a quad as row runs: run k covers pixels [run_start[k], run_start[k] +
+    // run_length[k]) of the output, in order; quad q owns runs [quad_runs[q], quad_runs[q+1]).
+    std::vector<int32_t> quad_runs;
+    std::vector<int32_t> run_start, run_length;
+    // Per pixel, in run order: the grid cell r (m+1) + c it lies in, and its fractions along c
+    // and r in 16-bit fixed point (units of 2^-16; error below 2^-17 of a cell).
+    std::vector<int32_t> cell;
+    std::vector<std::array<uint16_t, 2>> st;
+    std::vector<uint8_t> writes;  // per output pixel: how many quads claimed it (always 1)
 };
 
 struct RenderOptions {
