@@ -68,6 +68,9 @@ Outcome outcome_of(F&& f) {
 // itself to report a wrong result.
 template <class F>
 void expect_error_or_return_in_child(F body, unsigned seconds = 20) {
+    // Other tests in this binary start library thread pools (OpenCV, OpenImageIO); a plain fork
+    // of a threaded process can deadlock, so the child re-executes the binary instead.
+    GTEST_FLAG_SET(death_test_style, "threadsafe");
     EXPECT_EXIT(
         {
             alarm(seconds);
