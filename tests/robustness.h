@@ -1,0 +1,62 @@
+// Shared by the robustness and regression tests: run a call and classify what it did, or run it
+// in a child process with a time limit, so that a crash or a hang fails one test only.
+#pragma once
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cstdlib>
+#include <limits>
+#include <string>
+#include <typeinfo>
+
+#include "core/error.h"
+#include "core/strings.h"
+
+namespace tesswave::testing {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+// What a call did: returned, threw tesswave::Error, or threw anything else (always a bug).
+struct Outcome {
+    enum Kind { returned, error, other } kind = returned;
+    std::string what;
+};
+
+template <class F>
+Outcome outcome_of(F&& f) {
+    try {
+        f();
+        return {};
+    } catch (const Error& e) {
+        return {Outcome::error, e.what()};
+    } catch (const std::exception& e) {
+        return {Outcome::other, str(typeid(e).name(), ": ", e.what())};
+    } catch (...) {
+        return {Outcome::other, "an exception not derived from std::exception"};
+    }
+}
+
+// Runs `body` in a child process (a gtest death test) with a time limit, so that a crash, a stack
+// overflow, a hang or a sanitizer abort fails this test alone rather than the whole binary. The
+// child exits with 0 when `body` returns or throws tesswave::Error; `body` may exit otherwise
+// itself to report a wrong result.
+template <class F>
+void expect_error_or_return_in_child(F body, unsigned seconds = 20) {
+    // Other tests in this binary start library thread pools (OpenCV, OpenImageIO); a plain fork
+    // of a threaded process can deadlock, so the child re-executes the binary instead.
+    GTEST_FLAG_SET(death_test_style, "threadsafe");
+    EXPECT_EXIT(
+        {
+            alarm(seconds);
+            try {
+                body();
+            } catch (const Error&) {
+            }
+            std::_Exit(0);
+        },
+        ::testing::ExitedWithCode(0), "");
+}
+
+}  // namespace tesswave::testing
