@@ -16,22 +16,14 @@
 #include "core/lifting.h"
 #include "core/mesh_io.h"
 #include "core/validate.h"
+#include "fuzz_check.h"
 
 namespace {
 
 using namespace tesswave;
 
-[[noreturn]] void fail(const char* what) {
-    std::fprintf(stderr, "mesh_fuzz: %s\n", what);
-    std::abort();
-}
-
-void check_message(const Error& e) {
-    const std::string_view message = e.what();
-    if (message.empty() || message.find('\n') != std::string_view::npos) {
-        fail("an error message is not one line");
-    }
-}
+[[noreturn]] void fail(const char* what) { fuzz::fail("mesh_fuzz", what); }
+void check_message(const Error& e) { fuzz::check_message("mesh_fuzz", e); }
 
 void round_trips(const Mesh& mesh) {
     for (int J = 0; J <= 2; ++J) {

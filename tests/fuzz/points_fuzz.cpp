@@ -12,22 +12,14 @@
 #include "core/mesh_io.h"
 #include "core/triangulate.h"
 #include "core/validate.h"
+#include "fuzz_check.h"
 
 namespace {
 
 using namespace tesswave;
 
-[[noreturn]] void fail(const char* what) {
-    std::fprintf(stderr, "points_fuzz: %s\n", what);
-    std::abort();
-}
-
-void check_message(const Error& e) {
-    const std::string_view message = e.what();
-    if (message.empty() || message.find('\n') != std::string_view::npos) {
-        fail("an error message is not one line");
-    }
-}
+[[noreturn]] void fail(const char* what) { fuzz::fail("points_fuzz", what); }
+void check_message(const Error& e) { fuzz::check_message("points_fuzz", e); }
 
 }  // namespace
 
