@@ -10,7 +10,9 @@
 
 #include "core/error.h"
 #include "core/image_io.h"
+#include "core/mesh_io.h"
 #include "core/strings.h"
+#include "core/validate.h"
 
 namespace tesswave::cli {
 
@@ -106,6 +108,27 @@ std::pair<int, int> parse_cells(const std::string& text, const std::string& opti
         throw Error(str(option, ": expected whole numbers CxR up to 100000, got \"", text, "\""));
     }
     return {static_cast<int>(c), static_cast<int>(r)};
+}
+
+Mesh read_mesh_for(const std::string& mesh_path, const std::string& image_path, const Image& image,
+                   bool fit) {
+    const double W = image.width, H = image.height;
+    Mesh mesh = read_mesh(mesh_path);
+    if (mesh.width != W || mesh.height != H) {
+        if (!fit) {
+            throw Error(str(mesh_path, ": mesh domain ", mesh.width, "x", mesh.height,
+                            " does not match ", image_path, " (", image.width, "x", image.height,
+                            "); use --fit-mesh to scale it"));
+        }
+        const double sx = W / mesh.width, sy = H / mesh.height;
+        for (Vec2& p : mesh.vertices) {
+            p = {p.x == mesh.width ? W : p.x * sx, p.y == mesh.height ? H : p.y * sy};
+        }
+        mesh.width = W;
+        mesh.height = H;
+    }
+    require_valid(mesh, mesh_path);
+    return mesh;
 }
 
 }  // namespace tesswave::cli

@@ -37,6 +37,11 @@ class ProgressBar {
 std::pair<double, double> parse_size(const std::string& text, const std::string& option);
 std::pair<int, int> parse_cells(const std::string& text, const std::string& option);
 
+// A mesh file for an image: its domain must be the image's pixel rectangle, or with `fit` it is
+// scaled to it. Validated; errors name the mesh file.
+Mesh read_mesh_for(const std::string& mesh_path, const std::string& image_path, const Image& image,
+                   bool fit);
+
 // The analyze job, shared by `tesswave analyze` and the demo.
 struct AnalyzeRequest {
     std::string image, mesh, grid, output;
@@ -60,5 +65,6 @@ void add_mesh_commands(CLI::App& app);
 void add_demo_command(CLI::App& app);
 void add_analyze_command(CLI::App& app);
 void add_samples_command(CLI::App& app);
+void add_codec_commands(CLI::App& app);
 
 }  // namespace tesswave::cli

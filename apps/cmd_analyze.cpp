@@ -88,21 +88,7 @@ Mesh analysis_mesh(const AnalyzeRequest& request, const Image& image, std::strin
     const double W = image.width, H = image.height;
     Mesh mesh;
     if (!request.mesh.empty()) {
-        mesh = read_mesh(request.mesh);
-        if (mesh.width != W || mesh.height != H) {
-            if (!request.fit_mesh) {
-                throw Error(str(request.mesh, ": mesh domain ", mesh.width, "x", mesh.height,
-                                " does not match ", request.image, " (", image.width, "x",
-                                image.height, "); use --fit-mesh to scale it"));
-            }
-            const double sx = W / mesh.width, sy = H / mesh.height;
-            for (Vec2& p : mesh.vertices) {
-                p = {p.x == mesh.width ? W : p.x * sx, p.y == mesh.height ? H : p.y * sy};
-            }
-            mesh.width = W;
-            mesh.height = H;
-        }
-        require_valid(mesh, request.mesh);
+        mesh = read_mesh_for(request.mesh, request.image, image, request.fit_mesh);
         description = request.mesh;
     } else if (request.voronoi > 0) {
         mesh = voronoi_mesh(W, H, {.sites = request.voronoi, .seed = 1, .lloyd_iterations = 2});

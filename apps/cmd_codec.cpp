@@ -1,0 +1,161 @@
+// tesswave compress / decompress: the .twi still-image codec.
+#include <chrono>
+#include <cstdio>
+#include <memory>
+#include <nlohmann/json.hpp>
+
+#include "cli.h"
+#include "core/error.h"
+#include "core/file_io.h"
+#include "core/image_io.h"
+#include "core/still_codec.h"
+#include "core/strings.h"
+
+namespace tesswave::cli {
+namespace {
+
+const char* transform_name(TwiTransform t) {
+    return t == TwiTransform::mesh ? "mesh" : t == TwiTransform::grid53 ? "grid 5/3" : "grid 9/7";
+}
+
+TwiTransform parse_grid(const std::string& grid) {
+    if (grid.empty()) return TwiTransform::mesh;
+    return grid == "97" ? TwiTransform::grid97 : TwiTransform::grid53;
+}
+
+struct CompressArgs {
+    std::string input, output, mesh, grid;
+    double bpp = 0, psnr = 0, density = 1.0;
+    bool lossless = false, aligned = false, fit_mesh = false, overwrite = false, json = false;
+    int levels = 0;
+};
+
+void run_compress(const CompressArgs& a) {
+    check_output(a.output, a.overwrite, {a.input});
+    const auto start = std::chrono::steady_clock::now();
+    const Image image = read_image(a.input);
+    StillOptions o{.transform = parse_grid(a.grid), .lossless = a.lossless};
+    const double pixels = double(image.width) * image.height;
+    if (a.bpp > 0) o.max_bytes = static_cast<int64_t>(std::floor(a.bpp * pixels / 8));
+    if (a.psnr > 0) o.target_psnr = a.psnr;
+    if (a.bpp <= 0 && a.psnr <= 0 && !a.lossless) o.target_psnr = 40;
+    if (!a.mesh.empty()) o.mesh = read_mesh_for(a.mesh, a.input, image, a.fit_mesh);
+    o.aligned = a.aligned;
+    o.levels = a.levels;
+    o.density = a.density;
+    ProgressBar bar;
+    o.progress = [&bar](double done, const char* stage) { bar.update(done, stage); };
+    const StillResult r = compress_image(image, o);
+    write_file_atomic(
+        a.output, std::string_view(reinterpret_cast<const char*>(r.file.data()), r.file.size()));
+    const double seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    const double bpp = r.file.size() * 8.0 / pixels;
+    nlohmann::json j = {{"input", a.input},
+                        {"output", a.output},
+                        {"width", image.width},
+                        {"height", image.height},
+                        {"channels", image.channels()},
+                        {"transform", transform_name(r.header.transform)},
+                        {"lossless", r.header.lossless},
+                        {"levels", r.header.levels},
+                        {"bytes", r.file.size()},
+                        {"header_bytes", r.header.header_bytes},
+                        {"bpp", bpp},
+                        {"psnr", r.psnr},
+                        {"seconds", seconds}};
+    if (a.json) {
+        std::printf("%s\n", j.dump(2).c_str());
+        return;
+    }
+    std::printf("%s -> %s: %zu bytes, %.4f bpp, PSNR %.2f dB (%s, %s J=%d), %.2f s\n",
+                a.input.c_str(), a.output.c_str(), r.file.size(), bpp, r.psnr,
+                transform_name(r.header.transform), r.header.lossless ? "lossless," : "",
+                r.header.levels, seconds);
+}
+
+struct DecompressArgs {
+    std::string input, output;
+    int64_t bytes = 0;
+    double fraction = 0;
+    bool overwrite = false, json = false;
+};
+
+void run_decompress(const DecompressArgs& a) {
+    check_output(a.output, a.overwrite, {a.input});
+    const std::string data = read_file(a.input);
+    const std::span<const uint8_t> file(reinterpret_cast<const uint8_t*>(data.data()), data.size());
+    StillDecodeOptions o;
+    if (a.bytes > 0) o.max_bytes = static_cast<size_t>(a.bytes);
+    if (a.fraction > 0) o.max_bytes = static_cast<size_t>(std::ceil(a.fraction * data.size()));
+    const Image image = decompress_image(file, a.input, o);
+    write_image(image, a.output);
+    const size_t used = std::min(o.max_bytes, data.size());
+    const double bpp = used * 8.0 / (double(image.width) * image.height);
+    if (a.json) {
+        std::printf("%s\n", nlohmann::json{{"input", a.input},
+                                           {"output", a.output},
+                                           {"width", image.width},
+                                           {"height", image.height},
+                                           {"channels", image.channels()},
+                                           {"bytes_decoded", used},
+                                           {"bytes_in_file", data.size()},
+                                           {"bpp", bpp}}
+                                .dump(2)
+                                .c_str());
+        return;
+    }
+    std::printf("%s -> %s: %dx%d, %zu of %zu bytes decoded (%.4f bpp)\n", a.input.c_str(),
+                a.output.c_str(), image.width, image.height, used, data.size(), bpp);
+}
+
+}  // namespace
+
+void add_codec_commands(CLI::App& app) {
+    auto c = std::make_shared<CompressArgs>();
+    CLI::App* cmd = app.add_subcommand("compress", "Compress an image to .twi (mesh wavelets)");
+    cmd->add_option("image", c->input, "Input image (PNG, JPEG, TIFF, ...)")->required();
+    cmd->add_option("-o,--output", c->output, "Output .twi file")->required();
+    auto* bpp = cmd->add_option("--bpp", c->bpp, "Exact budget in bits per pixel (file size)")
+                    ->check(CLI::PositiveNumber);
+    auto* psnr = cmd->add_option("--psnr", c->psnr,
+                                 "Smallest file reaching this PSNR in dB "
+                                 "(default 40 when no rate is given)")
+                     ->check(CLI::Range(1.0, 200.0));
+    auto* lossless =
+        cmd->add_flag("--lossless", c->lossless, "Integer lifting, every bit-plane coded");
+    bpp->excludes(psnr)->excludes(lossless);
+    psnr->excludes(lossless);
+    auto* grid = cmd->add_option("--grid", c->grid, "Fixed-grid wavelet on the pixels: 53 or 97")
+                     ->check(CLI::IsMember({"53", "97"}));
+    auto* mesh = cmd->add_option("--mesh", c->mesh, "Tessellation file (.json; default a grid)");
+    cmd->add_flag("--fit-mesh", c->fit_mesh, "Scale a --mesh whose domain differs from the image");
+    auto* aligned = cmd->add_flag("--aligned", c->aligned,
+                                  "Grid mesh with its finest vertices on the pixel centres "
+                                  "(width-1 and height-1 multiples of 2^J): exact sampling");
+    grid->excludes(mesh)->excludes(aligned);
+    mesh->excludes(aligned);
+    cmd->add_option("-J,--levels", c->levels, "Mesh level J, or fixed-grid levels")
+        ->check(CLI::Range(1, 12));
+    cmd->add_option("--density", c->density, "Mesh samples per pixel when J is chosen")
+        ->capture_default_str()
+        ->check(CLI::Range(0.01, 100.0));
+    cmd->add_flag("-y,--overwrite", c->overwrite, "Overwrite the output");
+    cmd->add_flag("--json", c->json, "Print the result as JSON");
+    cmd->callback([c] { run_compress(*c); });
+
+    auto d = std::make_shared<DecompressArgs>();
+    cmd = app.add_subcommand("decompress", "Decode a .twi file, or a prefix of it, to an image");
+    cmd->add_option("input", d->input, "Input .twi file")->required();
+    cmd->add_option("-o,--output", d->output, "Output image (PNG, TIFF, ...)")->required();
+    auto* bytes = cmd->add_option("--bytes", d->bytes, "Decode only the first N bytes")
+                      ->check(CLI::PositiveNumber);
+    auto* fraction = cmd->add_option("--fraction", d->fraction, "Decode only this fraction")
+                         ->check(CLI::Range(0.0, 1.0));
+    bytes->excludes(fraction);
+    cmd->add_flag("-y,--overwrite", d->overwrite, "Overwrite the output");
+    cmd->add_flag("--json", d->json, "Print the result as JSON");
+    cmd->callback([d] { run_decompress(*d); });
+}
+
+}  // namespace tesswave::cli

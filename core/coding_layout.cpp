@@ -1,0 +1,160 @@
+#include "coding_layout.h"
+
+#include <algorithm>
+#include <cmath>
+#include <span>
+
+#include "lifting.h"
+
+namespace tesswave {
+namespace {
+
+// Ends the CSR offset arrays.
+void close_lists(CodingLayout& layout) {
+    layout.nb_offsets.push_back(static_cast<int32_t>(layout.nb.size()));
+    layout.pa_offsets.push_back(static_cast<int32_t>(layout.pa.size()));
+}
+
+void start_entry(CodingLayout& layout, int32_t id) {
+    layout.order.push_back(id);
+    layout.nb_primary.push_back(0);
+    layout.nb_offsets.push_back(static_cast<int32_t>(layout.nb.size()));
+    layout.pa_offsets.push_back(static_cast<int32_t>(layout.pa.size()));
+}
+
+double mesh_band_norm(const Hierarchy& h, std::vector<double>& x, int32_t begin, int32_t end,
+                      int probes, double area_per_sample) {
+    const int32_t size = end - begin;
+    const int k = std::min<int32_t>(probes, size);
+    if (k <= 0) return 1.0;
+    double sum = 0;
+    std::span<double> planes[] = {x};
+    for (int i = 0; i < k; ++i) {
+        const int32_t id = begin + static_cast<int32_t>((int64_t{2 * i + 1} * size) / (2 * k));
+        std::fill(x.begin(), x.end(), 0.0);
+        x[id] = 1.0;
+        inverse_transform(h, planes);
+        double energy = 0;
+        for (double v : x) energy += v * v;
+        sum += std::sqrt(energy * area_per_sample);
+    }
+    return k > 0 ? sum / k : 1.0;
+}
+
+}  // namespace
+
+CodingLayout mesh_layout(const Hierarchy& h, double domain_area, int probes) {
+    const int J = h.finest();
+    const int32_t n = h.num_samples(J), n0 = h.num_samples(0);
+    CodingLayout layout;
+    layout.size = n;
+    layout.order.reserve(n);
+    std::vector<double> x(probes > 0 ? n : 0, 0.0);
+    const double area_per_sample = domain_area / n;
+
+    layout.bands.push_back({-1, 'v', 0, n0, mesh_band_norm(h, x, 0, n0, probes, area_per_sample)});
+    for (int32_t i = 0; i < n0; ++i) start_entry(layout, i);
+    auto parent = [&](int32_t id) {
+        if (id >= n0) layout.pa.push_back(id);
+    };
+    for (int j = 0; j < J; ++j) {
+        const LevelTopology& t = h.levels[j];
+        const int32_t e0 = t.n_vertices, f0 = e0 + t.num_edges(), f1 = t.n_next();
+        // Edge points.
+        layout.bands.push_back(
+            {j, 'e', e0, f0, mesh_band_norm(h, x, e0, f0, probes, area_per_sample)});
+        for (int32_t e = 0; e < t.num_edges(); ++e) {
+            start_entry(layout, e0 + e);
+            for (int32_t f : t.edge_f[e]) {
+                if (f < 0) continue;
+                layout.nb.push_back(f0 + f);
+                ++layout.nb_primary.back();
+            }
+            for (int32_t f : t.edge_f[e]) {
+                if (f < 0) continue;
+                for (int32_t c = t.face_offsets[f]; c < t.face_offsets[f + 1]; ++c) {
+                    if (t.face_e[c] != e) layout.nb.push_back(e0 + t.face_e[c]);
+                }
+            }
+            parent(t.edge_v[e][0]);
+            parent(t.edge_v[e][1]);
+        }
+        // Face points.
+        layout.bands.push_back(
+            {j, 'f', f0, f1, mesh_band_norm(h, x, f0, f1, probes, area_per_sample)});
+        for (int32_t f = 0; f < t.num_faces(); ++f) {
+            start_entry(layout, f0 + f);
+            for (int32_t c = t.face_offsets[f]; c < t.face_offsets[f + 1]; ++c) {
+                layout.nb.push_back(e0 + t.face_e[c]);
+            }
+            layout.nb_primary.back() =
+                static_cast<uint8_t>(std::min(255, t.face_offsets[f + 1] - t.face_offsets[f]));
+            for (int32_t c = t.face_offsets[f]; c < t.face_offsets[f + 1]; ++c) {
+                const int32_t e = t.face_e[c];
+                const auto& ef = t.edge_f[e];
+                const int32_t other = ef[0] == f ? ef[1] : ef[0];
+                if (other >= 0) layout.nb.push_back(f0 + other);
+                parent(t.face_v[c]);
+            }
+        }
+    }
+    close_lists(layout);
+    // Bands hold positions in `order`; for the mesh these equal the coefficient ids.
+    return layout;
+}
+
+CodingLayout grid_layout(int width, int height, int levels, GridWavelet wavelet) {
+    CodingLayout layout;
+    layout.size = width * height;
+    layout.order.reserve(layout.size);
+    const std::vector<GridBand> bands = grid_bands(width, height, levels);
+    const char types[] = {'L', 'H', 'V', 'D'};
+    std::vector<float> x(layout.size);
+    const GridTransformOptions options{.wavelet = wavelet, .levels = levels};
+    for (size_t b = 0; b < bands.size(); ++b) {
+        const GridBand& g = bands[b];
+        // The norm of the band's centre impulse (the bands are translation invariant inside).
+        std::fill(x.begin(), x.end(), 0.0f);
+        x[(g.y0 + g.height / 2) * width + g.x0 + g.width / 2] = 1.0f;
+        grid_inverse(x, width, height, options);
+        double energy = 0;
+        for (float v : x) energy += double{v} * v;
+        const int32_t begin = static_cast<int32_t>(layout.order.size());
+        // The same orientation one level coarser (none for the LL band and the coarsest details).
+        const GridBand* coarser = nullptr;
+        if (g.type != 0 && b >= 4 && bands[b - 3].level == g.level + 1) coarser = &bands[b - 3];
+        for (int y = 0; y < g.height; ++y) {
+            for (int xx = 0; xx < g.width; ++xx) {
+                start_entry(layout, (g.y0 + y) * width + g.x0 + xx);
+                for (bool primary : {true, false}) {
+                    for (int dy = -1; dy <= 1; ++dy) {
+                        for (int dx = -1; dx <= 1; ++dx) {
+                            const int yy = y + dy, xn = xx + dx;
+                            if (!(dx || dy) || yy < 0 || yy >= g.height || xn < 0 ||
+                                xn >= g.width) {
+                                continue;
+                            }
+                            const bool p = g.type == 3   ? (dx && dy)
+                                           : g.type == 1 ? (!dx && dy)
+                                                         : (dx && !dy);
+                            if (p != primary) continue;
+                            layout.nb.push_back((g.y0 + yy) * width + g.x0 + xn);
+                            layout.nb_primary.back() += primary;
+                        }
+                    }
+                }
+                if (coarser) {
+                    const int py = std::min(y / 2, coarser->height - 1);
+                    const int px = std::min(xx / 2, coarser->width - 1);
+                    layout.pa.push_back((coarser->y0 + py) * width + coarser->x0 + px);
+                }
+            }
+        }
+        layout.bands.push_back({g.level, types[g.type], begin,
+                                static_cast<int32_t>(layout.order.size()), std::sqrt(energy)});
+    }
+    close_lists(layout);
+    return layout;
+}
+
+}  // namespace tesswave
