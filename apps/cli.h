@@ -66,5 +66,6 @@ void add_demo_command(CLI::App& app);
 void add_analyze_command(CLI::App& app);
 void add_samples_command(CLI::App& app);
 void add_codec_commands(CLI::App& app);
+void add_compare_command(CLI::App& app);
 
 }  // namespace tesswave::cli

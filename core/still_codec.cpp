@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <bit>
 #include <cmath>
+#include <limits>
 #include <numeric>
 
 #include "colour.h"
@@ -216,7 +217,8 @@ StillResult compress_image(const Image& image, const StillOptions& o) {
         stream.resize(hi);
     }
     progress(o, 0.9, "measuring");
-    result.psnr = image_psnr(image, reconstruct(domain, h, stream), h.bit_depth);
+    result.psnr = o.measure ? image_psnr(image, reconstruct(domain, h, stream), h.bit_depth)
+                            : std::numeric_limits<double>::quiet_NaN();
     result.file = std::move(head);
     result.file.insert(result.file.end(), stream.begin(), stream.end());
     progress(o, 1.0, "done");

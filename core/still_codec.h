@@ -34,13 +34,14 @@ struct StillOptions {
     int levels = 0;        // J (mesh) or decomposition levels (grid); 0: chosen
     double density = 1.0;  // samples per pixel when J is chosen
     int norm_probes = 2;   // impulses per band for the band norms
+    bool measure = true;   // decode the result once and report its PSNR
     std::function<void(double done, const char* stage)> progress = {};
 };
 
 struct StillResult {
     std::vector<uint8_t> file;
     TwiHeader header;
-    double psnr = 0;  // of the decoded file against the input (lossy: measured; lossless: exact)
+    double psnr = 0;  // of the decoded file against the input (NaN when not measured)
 };
 
 // Throws Error for images or options the codec cannot take (with the reason).
