@@ -2,10 +2,14 @@
 
 #include <gtest/gtest.h>
 
+#include <bit>
 #include <cmath>
 
 #include "core/error.h"
+#include "core/grid_mesh.h"
+#include "core/hierarchy.h"
 #include "core/metrics.h"
+#include "core/still_domain.h"
 #include "samples/sample_images.h"
 #include "samples/sample_meshes.h"
 
@@ -120,6 +124,86 @@ TEST(StillCodec, quality_rises_with_the_bytes_decoded) {
         }
         EXPECT_EQ(last, r.psnr);
     }
+}
+
+// Size and quality of a fixed procedural image, pinned from both sides: a coder change that makes
+// them worse fails, and so does one that makes them much better (update the pins then).
+struct Pin {
+    TwiTransform transform;
+    double bpp, psnr;
+};
+
+TEST(StillCodec, pinned_quality_at_three_rates) {
+    const Image image = scene(128, 96, 3);
+    const Pin pins[] = {
+        {TwiTransform::mesh, 0.25, 21.292},   {TwiTransform::mesh, 0.5, 27.461},
+        {TwiTransform::mesh, 1, 30.471},      {TwiTransform::grid53, 0.25, 24.232},
+        {TwiTransform::grid53, 0.5, 29.496},  {TwiTransform::grid53, 1, 35.241},
+        {TwiTransform::grid97, 0.25, 24.579}, {TwiTransform::grid97, 0.5, 29.636},
+        {TwiTransform::grid97, 1, 35.115},
+    };
+    for (const Pin& pin : pins) {
+        const int64_t budget = static_cast<int64_t>(pin.bpp * 128 * 96 / 8);
+        const StillResult r =
+            compress_image(image, {.transform = pin.transform, .max_bytes = budget});
+        EXPECT_EQ(static_cast<int64_t>(r.file.size()), budget);
+        EXPECT_NEAR(r.psnr, pin.psnr, 0.05) << int(pin.transform) << " at " << pin.bpp << " bpp";
+    }
+}
+
+TEST(StillCodec, pinned_sizes_for_three_quality_targets) {
+    const Image image = scene(128, 96, 3);
+    for (auto [target, bytes] :
+         {std::pair{26.0, 494}, std::pair{30.0, 810}, std::pair{34.0, 1326}}) {
+        const StillResult r =
+            compress_image(image, {.transform = TwiTransform::grid97, .target_psnr = target});
+        EXPECT_GE(r.psnr, target);
+        EXPECT_LT(r.psnr, target + 0.3);
+        EXPECT_NEAR(static_cast<double>(r.file.size()), bytes, 0.02 * bytes) << target << " dB";
+    }
+}
+
+// On a grid mesh whose finest vertices are the pixels, the lifted bilinear transform is the
+// separable 5/3 away from the border (the mesh takes 1D rules along the border where the grid
+// extends symmetrically), so the two paths of the codec see the same coefficients there.
+TEST(StillCodec, fixed_grid_53_equals_the_mesh_path_on_a_pixel_aligned_grid_mesh) {
+    const int n = 129, J = 4;  // 129 = 8 * 2^4 + 1: no padding
+    Image image = scene(n, n, 1);
+    TwiHeader mesh_h;
+    mesh_h.placement = MeshPlacement::centres;
+    mesh_h.width = mesh_h.height = n;
+    mesh_h.levels = J;
+    mesh_h.grid_cols = mesh_h.grid_rows = aligned_cells(n, J);
+    mesh_h.mesh = grid_mesh(n - 1, n - 1, mesh_h.grid_cols, mesh_h.grid_rows);
+    TwiHeader grid_h = mesh_h;
+    grid_h.transform = TwiTransform::grid53;
+    const std::vector<float> mesh = StillDomain(mesh_h, 0).analyze(image)[0];
+    const std::vector<float> grid = StillDomain(grid_h, 0).analyze(image)[0];
+    const Hierarchy hierarchy = build_hierarchy(mesh_h.mesh, {.levels = J});
+    const std::vector<Vec2> pos = refine_positions(hierarchy, mesh_h.mesh.vertices, J);
+    int compared = 0, near_border = 0;
+    for (size_t i = 0; i < pos.size(); ++i) {
+        const int x = static_cast<int>(std::lround(pos[i].x)),
+                  y = static_cast<int>(std::lround(pos[i].y));
+        const int L = std::min(std::countr_zero(static_cast<unsigned>(x | y | 1024)), J) + 1;
+        if (L > J) continue;  // a coarse (LL) sample
+        // Its place in the Mallat layout: the level-L band of the region left by L - 1 levels.
+        int w = n, col = x, row = y;
+        for (int l = 1; l < L; ++l) w = (w + 1) / 2;
+        const int low = (w + 1) / 2, X = x >> (L - 1), Y = y >> (L - 1);
+        col = X % 2 ? low + X / 2 : X / 2;
+        row = Y % 2 ? low + Y / 2 : Y / 2;
+        const int margin = 2 << L;  // the border's reach: two cells of the level (1 << L fails)
+        if (std::min({x, y, n - 1 - x, n - 1 - y}) < margin) {
+            ++near_border;
+            continue;
+        }
+        ASSERT_NEAR(mesh[i], grid[row * n + col], 2e-6)
+            << "pixel " << x << "," << y << " level " << L;
+        ++compared;
+    }
+    EXPECT_GT(compared, n * n / 2);
+    EXPECT_GT(near_border, 0);
 }
 
 }  // namespace
