@@ -12,7 +12,9 @@
 namespace tesswave {
 namespace {
 
-constexpr uint8_t kSignificant = 1, kNegative = 2, kRefined = 4;
+// Coefficient state bits; kParent: a parent is significant.
+constexpr uint8_t kSignificant = 1, kNegative = 2, kRefined = 4, kParent = 8;
+constexpr int kRun = 4;        // isolated coefficients coded together in run mode
 constexpr uint8_t kNone = 32;  // `known` of a coefficient no plane of which was coded
 // Where a significant coefficient is put inside the interval its known bits leave open, as a
 // fraction of the interval: below the middle, since magnitudes fall off inside it (0.375 is
@@ -23,8 +25,9 @@ constexpr float kRecon = 0.375f;
 struct BandModels {
     // [a parent significant][significant primary neighbours, capped at 2][others, capped at 2]
     BitModel significance[2][3][3];
-    BitModel sign[3];        // neighbour signs: net negative, balanced, net positive
-    BitModel refinement[3];  // first refinement without / with significant neighbours; later
+    BitModel sign[3];               // neighbour signs: net negative, balanced, net positive
+    BitModel refinement[3];         // first refinement without / with significant neighbours; later
+    BitModel run, run_position[3];  // run mode: any significant; position of the first
 };
 
 int channel_class(int channel) { return channel == 0 ? 0 : channel < 3 ? 1 : 2; }
@@ -69,6 +72,7 @@ class Traversal {
           known_(known),
           side_(side),
           state_(value.size(), std::vector<uint8_t>(layout.size, 0)),
+          near_(value.size(), std::vector<uint8_t>(layout.size, 0)),
           models_(layout.bands.size() * 4) {}
 
     bool run() {
@@ -113,21 +117,27 @@ class Traversal {
     }
     int shift(int b) const { return options_.shifts.empty() ? 0 : options_.shifts[b]; }
 
-    // 3 a + b for a significant primary and b other significant neighbours (each capped at 2).
-    int significant_neighbours(const uint8_t* state, int32_t k) const {
-        const int32_t begin = layout_.nb_offsets[k], split = begin + layout_.nb_primary[k];
-        int a = 0, b = 0;
-        for (int32_t i = begin; i < split; ++i) a += state[layout_.nb[i]] & kSignificant;
-        for (int32_t i = split; i < layout_.nb_offsets[k + 1]; ++i) {
-            b += state[layout_.nb[i]] & kSignificant;
-        }
-        return 3 * std::min(a, 2) + std::min(b, 2);
+    // 3 a + b for a significant primary and b other significant neighbours (each capped at 2),
+    // from the counts kept in near (primary in the low nibble, the others in the high one).
+    static int significant_neighbours(const uint8_t* near, int32_t id) {
+        const int n = near[id];
+        return 3 * std::min(n & 15, 2) + std::min(n >> 4, 2);
     }
-    int parent_significant(const uint8_t* state, int32_t k) const {
-        for (int32_t i = layout_.pa_offsets[k]; i < layout_.pa_offsets[k + 1]; ++i) {
-            if (state[layout_.pa[i]] & kSignificant) return 1;
+    // A coefficient became significant: its neighbours count it (the relation is symmetric, and
+    // primary on both sides; coding_layout_test checks this).
+    void count_significant(uint8_t* near, int32_t k) const {
+        const int32_t begin = layout_.nb_offsets[k], split = begin + layout_.nb_primary[k];
+        for (int32_t i = begin; i < split; ++i) {
+            uint8_t& n = near[layout_.nb[i]];
+            if ((n & 15) < 15) ++n;
         }
-        return 0;
+        for (int32_t i = split; i < layout_.nb_offsets[k + 1]; ++i) {
+            uint8_t& n = near[layout_.nb[i]];
+            if ((n >> 4) < 15) n += 16;
+        }
+    }
+    static int parent_significant(const uint8_t* state, int32_t id) {
+        return (state[id] & kParent) ? 1 : 0;
     }
     int sign_context(const uint8_t* state, int32_t k) const {
         int net = 0;
@@ -144,12 +154,58 @@ class Traversal {
         const int bit = side_.bit(m.significance[pa][nb / 3][nb % 3], (std::abs(v) >> p) & 1);
         if (side_.stopped()) return false;
         known = static_cast<uint8_t>(p);
-        if (!bit) return true;
+        return !bit || become_significant(m, state, k, id, p, v);
+    }
+
+    // Codes the sign of a coefficient whose bit p is its first 1, and records it significant.
+    bool become_significant(BandModels& m, uint8_t* state, int32_t k, int32_t id, int p,
+                            int32_t& v) {
         const int negative = side_.bit(m.sign[sign_context(state, k)], v < 0);
         if (side_.stopped()) return false;
         state[id] |= kSignificant | (negative ? kNegative : 0);
+        count_significant(near_[c_].data(), k);
+        for (int32_t i = layout_.ch_offsets[id]; i < layout_.ch_offsets[id + 1]; ++i) {
+            state[layout_.ch[i]] |= kParent;
+        }
         if constexpr (std::is_same_v<Side, DecodeSide>) v = negative ? -(1 << p) : 1 << p;
         return true;
+    }
+
+    // kRun coefficients from position k, none significant, none visited in this plane, none with
+    // a significant neighbour or parent.
+    bool isolated_run(const uint8_t* state, const uint8_t* near, const uint8_t* known, int32_t k,
+                      int p) const {
+        for (int i = 0; i < kRun; ++i) {
+            const int32_t id = layout_.order[k + i];
+            if (state[id] || near[id] || known[id] == p) return false;
+        }
+        return true;
+    }
+
+    // Run mode (EBCOT's): one decision for kRun isolated coefficients; when one of them turns
+    // significant, the position of the first (2 bits) and its sign. Returns how many
+    // coefficients it settled (0 when the side stopped).
+    int run(BandModels& m, uint8_t* state, int32_t* value, uint8_t* known, int32_t k, int p) {
+        int first = kRun;
+        if constexpr (std::is_same_v<Side, EncodeSide>) {
+            for (int i = kRun - 1; i >= 0; --i) {
+                if ((std::abs(value[layout_.order[k + i]]) >> p) & 1) first = i;
+            }
+        }
+        const int any = side_.bit(m.run, first < kRun);
+        if (side_.stopped()) return 0;
+        if (any) {
+            const int hi = side_.bit(m.run_position[0], first >> 1);
+            const int lo = side_.bit(m.run_position[1 + hi], first & 1);
+            if (side_.stopped()) return 0;
+            first = 2 * hi + lo;
+        }
+        for (int i = 0; i < first; ++i) known[layout_.order[k + i]] = static_cast<uint8_t>(p);
+        if (!any) return kRun;
+        const int32_t id = layout_.order[k + first];
+        known[id] = static_cast<uint8_t>(p);
+        if (!become_significant(m, state, k + first, id, p, value[id])) return 0;
+        return first + 1;
     }
 
     bool run_pass(int pass, int c, int b, int p) {
@@ -158,12 +214,15 @@ class Traversal {
         uint8_t* state = state_[c].data();
         int32_t* value = value_[c].data();
         uint8_t* known = known_[c].data();
+        const uint8_t* near = near_[c].data();
+        c_ = c;
         if (pass == 0) {
             // Significance where a neighbour or parent is significant.
             for (int32_t k = band.begin; k < band.end; ++k) {
                 const int32_t id = layout_.order[k];
                 if (state[id] & kSignificant) continue;
-                const int nb = significant_neighbours(state, k), pa = parent_significant(state, k);
+                const int nb = significant_neighbours(near, id);
+                const int pa = parent_significant(state, id);
                 if (nb == 0 && pa == 0) continue;
                 if (!significance(m, state, k, id, p, nb, pa, value[id], known[id])) return false;
             }
@@ -175,7 +234,7 @@ class Traversal {
                 const int32_t id = layout_.order[k];
                 if (!(state[id] & kSignificant) || known[id] == p) continue;
                 const int ctx = (state[id] & kRefined)             ? 2
-                                : significant_neighbours(state, k) ? 1
+                                : significant_neighbours(near, id) ? 1
                                                                    : 0;
                 const int bit = side_.bit(m.refinement[ctx], (std::abs(value[id]) >> p) & 1);
                 if (side_.stopped()) return false;
@@ -187,11 +246,18 @@ class Traversal {
             }
             return true;
         }
-        // Significance of the rest.
+        // Significance of the rest, isolated coefficients kRun at a time where they line up.
         for (int32_t k = band.begin; k < band.end; ++k) {
+            if ((k - band.begin) % kRun == 0 && k + kRun <= band.end &&
+                isolated_run(state, near, known, k, p)) {
+                const int settled = run(m, state, value, known, k, p);
+                if (settled == 0) return false;
+                k += settled - 1;
+                continue;
+            }
             const int32_t id = layout_.order[k];
             if ((state[id] & kSignificant) || known[id] == p) continue;
-            const int nb = significant_neighbours(state, k), pa = parent_significant(state, k);
+            const int nb = significant_neighbours(near, id), pa = parent_significant(state, id);
             if (!significance(m, state, k, id, p, nb, pa, value[id], known[id])) return false;
         }
         return true;
@@ -204,6 +270,8 @@ class Traversal {
     std::vector<std::vector<uint8_t>>& known_;
     Side& side_;
     std::vector<std::vector<uint8_t>> state_;
+    std::vector<std::vector<uint8_t>> near_;  // significant neighbour counts per coefficient
+    int c_ = 0;                               // the channel being coded
     std::vector<BandModels> models_;
 };
 

@@ -9,10 +9,20 @@
 namespace tesswave {
 namespace {
 
-// Ends the CSR offset arrays.
+// Ends the CSR offset arrays and builds the children lists from the parents.
 void close_lists(CodingLayout& layout) {
     layout.nb_offsets.push_back(static_cast<int32_t>(layout.nb.size()));
     layout.pa_offsets.push_back(static_cast<int32_t>(layout.pa.size()));
+    layout.ch_offsets.assign(static_cast<size_t>(layout.size) + 1, 0);
+    for (int32_t p : layout.pa) ++layout.ch_offsets[p + 1];
+    for (int32_t i = 0; i < layout.size; ++i) layout.ch_offsets[i + 1] += layout.ch_offsets[i];
+    layout.ch.resize(layout.pa.size());
+    std::vector<int32_t> fill(layout.ch_offsets.begin(), layout.ch_offsets.end() - 1);
+    for (size_t k = 0; k < layout.order.size(); ++k) {
+        for (int32_t i = layout.pa_offsets[k]; i < layout.pa_offsets[k + 1]; ++i) {
+            layout.ch[fill[layout.pa[i]]++] = layout.order[k];
+        }
+    }
 }
 
 void start_entry(CodingLayout& layout, int32_t id) {
@@ -103,22 +113,45 @@ CodingLayout mesh_layout(const Hierarchy& h, double domain_area, int probes) {
     return layout;
 }
 
-CodingLayout grid_layout(int width, int height, int levels, GridWavelet wavelet) {
+// Band norms from centre impulses, on a plane just large enough for the coarsest basis functions
+// (12 cells of the coarsest level a side): the bands are translation invariant inside, so this
+// equals the full plane's norms while costing a fraction of its transforms.
+std::vector<double> grid_band_norms(int width, int height, int levels, GridWavelet wavelet) {
+    const int64_t reach = int64_t{12} << std::min(levels, 24);
+    const int w = static_cast<int>(std::min<int64_t>(width, reach));
+    const int h = static_cast<int>(std::min<int64_t>(height, reach));
+    const std::vector<GridBand> bands = grid_bands(w, h, levels);
+    std::vector<float> x(static_cast<size_t>(w) * h);
+    std::vector<double> norms;
+    for (const GridBand& g : bands) {
+        std::fill(x.begin(), x.end(), 0.0f);
+        x[static_cast<size_t>(g.y0 + g.height / 2) * w + g.x0 + g.width / 2] = 1.0f;
+        grid_inverse(x, w, h, {.wavelet = wavelet, .levels = levels});
+        double energy = 0;
+        for (float v : x) energy += double{v} * v;
+        norms.push_back(std::sqrt(energy));
+    }
+    return norms;
+}
+
+CodingLayout grid_layout(int width, int height, int levels, GridWavelet wavelet, bool norms) {
     CodingLayout layout;
     layout.size = width * height;
     layout.order.reserve(layout.size);
+    layout.nb_primary.reserve(layout.size);
+    layout.nb_offsets.reserve(layout.size + 1);
+    layout.pa_offsets.reserve(layout.size + 1);
+    layout.nb.reserve(static_cast<size_t>(layout.size) * 8);
+    layout.pa.reserve(layout.size);
     const std::vector<GridBand> bands = grid_bands(width, height, levels);
     const char types[] = {'L', 'H', 'V', 'D'};
-    std::vector<float> x(layout.size);
-    const GridTransformOptions options{.wavelet = wavelet, .levels = levels};
+    std::vector<double> band_norms(bands.size(), 1.0);
+    if (norms) {
+        band_norms = grid_band_norms(width, height, levels, wavelet);
+        if (band_norms.size() != bands.size()) band_norms.assign(bands.size(), 1.0);
+    }
     for (size_t b = 0; b < bands.size(); ++b) {
         const GridBand& g = bands[b];
-        // The norm of the band's centre impulse (the bands are translation invariant inside).
-        std::fill(x.begin(), x.end(), 0.0f);
-        x[(g.y0 + g.height / 2) * width + g.x0 + g.width / 2] = 1.0f;
-        grid_inverse(x, width, height, options);
-        double energy = 0;
-        for (float v : x) energy += double{v} * v;
         const int32_t begin = static_cast<int32_t>(layout.order.size());
         // The same orientation one level coarser (none for the LL band and the coarsest details).
         const GridBand* coarser = nullptr;
@@ -151,7 +184,7 @@ CodingLayout grid_layout(int width, int height, int levels, GridWavelet wavelet)
             }
         }
         layout.bands.push_back({g.level, types[g.type], begin,
-                                static_cast<int32_t>(layout.order.size()), std::sqrt(energy)});
+                                static_cast<int32_t>(layout.order.size()), band_norms[b]});
     }
     close_lists(layout);
     return layout;

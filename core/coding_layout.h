@@ -34,6 +34,8 @@ struct CodingLayout {
     // coefficients correlate most); the coder counts primary and other neighbours apart.
     std::vector<int32_t> nb_offsets, nb, pa_offsets, pa;
     std::vector<uint8_t> nb_primary;
+    // Per coefficient id: the coefficients it is a parent of [ch_offsets[i], ch_offsets[i+1]).
+    std::vector<int32_t> ch_offsets, ch;
 };
 
 // The mesh transform of a hierarchy down to T0 (lifting.h layout). A band's norm is the mean
@@ -48,6 +50,7 @@ CodingLayout mesh_layout(const Hierarchy& hierarchy, double domain_area, int pro
 // Neighbours: the 8 around a coefficient inside its band, primary as in EBCOT: the horizontal
 // ones in LL and LH, the vertical ones in HL, the diagonal ones in HH. Parent: the coefficient of
 // the same orientation one level coarser.
-CodingLayout grid_layout(int width, int height, int levels, GridWavelet wavelet);
+// Norms from centre impulses when `norms` (else 1, for decoders that read them).
+CodingLayout grid_layout(int width, int height, int levels, GridWavelet wavelet, bool norms = true);
 
 }  // namespace tesswave

@@ -29,7 +29,7 @@ float max_value(const TwiHeader& h) { return h.bit_depth == 16 ? 65535.0f : 255.
 StillDomain::StillDomain(const TwiHeader& header, int probes) : header_(header) {
     const TwiHeader& h = header_;
     if (h.transform != TwiTransform::mesh) {
-        layout_ = grid_layout(h.width, h.height, h.levels, wavelet_of(h.transform));
+        layout_ = grid_layout(h.width, h.height, h.levels, wavelet_of(h.transform), probes > 0);
         return;
     }
     hierarchy_ = build_hierarchy(h.mesh, {.levels = h.levels});
