@@ -131,4 +131,17 @@ Mesh read_mesh_for(const std::string& mesh_path, const std::string& image_path, 
     return mesh;
 }
 
+CLI::Validator positive(const std::string& what) {
+    return CLI::Validator(
+        [what](std::string& text) {
+            char* end = nullptr;
+            const double v = std::strtod(text.c_str(), &end);
+            if (text.empty() || *end != '\0' || !(v > 0) || !std::isfinite(v)) {
+                return str("must be ", what, " above 0, not '", text, "'");
+            }
+            return std::string();
+        },
+        "POSITIVE");
+}
+
 }  // namespace tesswave::cli

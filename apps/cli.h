@@ -33,6 +33,9 @@ class ProgressBar {
     int last_ = -1;
 };
 
+// A check for options that must be a positive (finite) number: "must be <what>, not '<text>'".
+CLI::Validator positive(const std::string& what);
+
 // "WxH" or "W x H" into two positive numbers; throws Error naming the option.
 std::pair<double, double> parse_size(const std::string& text, const std::string& option);
 std::pair<int, int> parse_cells(const std::string& text, const std::string& option);

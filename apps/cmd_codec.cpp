@@ -45,7 +45,12 @@ void run_compress(const CompressArgs& a) {
     o.density = a.density;
     ProgressBar bar;
     o.progress = [&bar](double done, const char* stage) { bar.update(done, stage); };
-    const StillResult r = compress_image(image, o);
+    StillResult r;
+    try {
+        r = compress_image(image, o);
+    } catch (const Error& e) {
+        throw Error(str(a.input, ": ", e.what()));
+    }
     write_file_atomic(
         a.output, std::string_view(reinterpret_cast<const char*>(r.file.data()), r.file.size()));
     const double seconds =
@@ -117,7 +122,7 @@ void add_codec_commands(CLI::App& app) {
     cmd->add_option("image", c->input, "Input image (PNG, JPEG, TIFF, ...)")->required();
     cmd->add_option("-o,--output", c->output, "Output .twi file")->required();
     auto* bpp = cmd->add_option("--bpp", c->bpp, "Exact budget in bits per pixel (file size)")
-                    ->check(CLI::PositiveNumber);
+                    ->check(positive("a number of bits per pixel"));
     auto* psnr = cmd->add_option("--psnr", c->psnr,
                                  "Smallest file reaching this PSNR in dB "
                                  "(default 40 when no rate is given)")
@@ -149,9 +154,9 @@ void add_codec_commands(CLI::App& app) {
     cmd->add_option("input", d->input, "Input .twi file")->required();
     cmd->add_option("-o,--output", d->output, "Output image (PNG, TIFF, ...)")->required();
     auto* bytes = cmd->add_option("--bytes", d->bytes, "Decode only the first N bytes")
-                      ->check(CLI::PositiveNumber);
+                      ->check(positive("a number of bytes"));
     auto* fraction = cmd->add_option("--fraction", d->fraction, "Decode only this fraction")
-                         ->check(CLI::Range(0.0, 1.0));
+                         ->check(CLI::Range(0.0, 1.0) & positive("a fraction"));
     bytes->excludes(fraction);
     cmd->add_flag("-y,--overwrite", d->overwrite, "Overwrite the output");
     cmd->add_flag("--json", d->json, "Print the result as JSON");
