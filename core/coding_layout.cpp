@@ -75,15 +75,29 @@ CodingLayout mesh_layout(const Hierarchy& h, double domain_area, int probes) {
             {j, 'e', e0, f0, mesh_band_norm(h, x, e0, f0, probes, area_per_sample)});
         for (int32_t e = 0; e < t.num_edges(); ++e) {
             start_entry(layout, e0 + e);
+            // Primary: the opposite edge in each face with an even number of corners (on a
+            // grid, the EBCOT neighbours across the edge's own direction).
+            auto opposite = [&](int32_t f) {
+                const int32_t begin = t.face_offsets[f], k = t.face_offsets[f + 1] - begin;
+                if (k % 2) return -1;
+                for (int32_t c = 0; c < k; ++c) {
+                    if (t.face_e[begin + c] == e) return t.face_e[begin + (c + k / 2) % k];
+                }
+                return -1;
+            };
             for (int32_t f : t.edge_f[e]) {
-                if (f < 0) continue;
-                layout.nb.push_back(f0 + f);
-                ++layout.nb_primary.back();
+                if (f >= 0 && opposite(f) >= 0) {
+                    layout.nb.push_back(e0 + opposite(f));
+                    ++layout.nb_primary.back();
+                }
             }
             for (int32_t f : t.edge_f[e]) {
                 if (f < 0) continue;
+                layout.nb.push_back(f0 + f);
+                const int32_t opp = opposite(f);
                 for (int32_t c = t.face_offsets[f]; c < t.face_offsets[f + 1]; ++c) {
-                    if (t.face_e[c] != e) layout.nb.push_back(e0 + t.face_e[c]);
+                    if (t.face_e[c] != e && t.face_e[c] != opp)
+                        layout.nb.push_back(e0 + t.face_e[c]);
                 }
             }
             parent(t.edge_v[e][0]);
@@ -94,16 +108,17 @@ CodingLayout mesh_layout(const Hierarchy& h, double domain_area, int probes) {
             {j, 'f', f0, f1, mesh_band_norm(h, x, f0, f1, probes, area_per_sample)});
         for (int32_t f = 0; f < t.num_faces(); ++f) {
             start_entry(layout, f0 + f);
+            // Primary: the faces across its edges; then its edge points.
+            for (int32_t c = t.face_offsets[f]; c < t.face_offsets[f + 1]; ++c) {
+                const auto& ef = t.edge_f[t.face_e[c]];
+                const int32_t other = ef[0] == f ? ef[1] : ef[0];
+                if (other >= 0) {
+                    layout.nb.push_back(f0 + other);
+                    ++layout.nb_primary.back();
+                }
+            }
             for (int32_t c = t.face_offsets[f]; c < t.face_offsets[f + 1]; ++c) {
                 layout.nb.push_back(e0 + t.face_e[c]);
-            }
-            layout.nb_primary.back() =
-                static_cast<uint8_t>(std::min(255, t.face_offsets[f + 1] - t.face_offsets[f]));
-            for (int32_t c = t.face_offsets[f]; c < t.face_offsets[f + 1]; ++c) {
-                const int32_t e = t.face_e[c];
-                const auto& ef = t.edge_f[e];
-                const int32_t other = ef[0] == f ? ef[1] : ef[0];
-                if (other >= 0) layout.nb.push_back(f0 + other);
                 parent(t.face_v[c]);
             }
         }
