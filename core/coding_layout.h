@@ -41,8 +41,9 @@ struct CodingLayout {
 // The mesh transform of a hierarchy down to T0 (lifting.h layout). A band's norm is the mean
 // over `probes` unit impulses spread through it, reconstructed to T_J, each sample standing for
 // domain_area / |V_J| pixels (probes = 0: norms left at 1, for decoders that read them).
-// Neighbours of an edge point: its two face points (primary), then the other edge points of its
-// faces; of a face point: its edge points (primary), then the face points across its edges.
+// Neighbours of an edge point: the opposite edge points of its faces with an even corner count
+// (primary; on a grid these are EBCOT's), then its face points and its faces' other edge points;
+// of a face point: the face points across its edges (primary), then its edge points.
 // Parents: the edge's endpoints, the face's corners (detail coefficients only).
 CodingLayout mesh_layout(const Hierarchy& hierarchy, double domain_area, int probes = 1);
 
