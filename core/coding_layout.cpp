@@ -4,7 +4,7 @@
 #include <cmath>
 #include <span>
 
-#include "lifting.h"
+#include "selection.h"
 
 namespace tesswave {
 namespace {
@@ -32,25 +32,6 @@ void start_entry(CodingLayout& layout, int32_t id) {
     layout.pa_offsets.push_back(static_cast<int32_t>(layout.pa.size()));
 }
 
-double mesh_band_norm(const Hierarchy& h, std::vector<double>& x, int32_t begin, int32_t end,
-                      int probes, double area_per_sample) {
-    const int32_t size = end - begin;
-    const int k = std::min<int32_t>(probes, size);
-    if (k <= 0) return 1.0;
-    double sum = 0;
-    std::span<double> planes[] = {x};
-    for (int i = 0; i < k; ++i) {
-        const int32_t id = begin + static_cast<int32_t>((int64_t{2 * i + 1} * size) / (2 * k));
-        std::fill(x.begin(), x.end(), 0.0);
-        x[id] = 1.0;
-        inverse_transform(h, planes);
-        double energy = 0;
-        for (double v : x) energy += v * v;
-        sum += std::sqrt(energy * area_per_sample);
-    }
-    return k > 0 ? sum / k : 1.0;
-}
-
 }  // namespace
 
 CodingLayout mesh_layout(const Hierarchy& h, double domain_area, int probes) {
@@ -59,10 +40,12 @@ CodingLayout mesh_layout(const Hierarchy& h, double domain_area, int probes) {
     CodingLayout layout;
     layout.size = n;
     layout.order.reserve(n);
-    std::vector<double> x(probes > 0 ? n : 0, 0.0);
-    const double area_per_sample = domain_area / n;
+    std::vector<double> scratch;
+    auto norm = [&](int32_t begin, int32_t end) {
+        return impulse_norm(h, begin, end, domain_area, probes, scratch);
+    };
 
-    layout.bands.push_back({-1, 'v', 0, n0, mesh_band_norm(h, x, 0, n0, probes, area_per_sample)});
+    layout.bands.push_back({-1, 'v', 0, n0, norm(0, n0)});
     for (int32_t i = 0; i < n0; ++i) start_entry(layout, i);
     auto parent = [&](int32_t id) {
         if (id >= n0) layout.pa.push_back(id);
@@ -71,8 +54,7 @@ CodingLayout mesh_layout(const Hierarchy& h, double domain_area, int probes) {
         const LevelTopology& t = h.levels[j];
         const int32_t e0 = t.n_vertices, f0 = e0 + t.num_edges(), f1 = t.n_next();
         // Edge points.
-        layout.bands.push_back(
-            {j, 'e', e0, f0, mesh_band_norm(h, x, e0, f0, probes, area_per_sample)});
+        layout.bands.push_back({j, 'e', e0, f0, norm(e0, f0)});
         for (int32_t e = 0; e < t.num_edges(); ++e) {
             start_entry(layout, e0 + e);
             // Primary: the opposite edge in each face with an even number of corners (on a
@@ -104,8 +86,7 @@ CodingLayout mesh_layout(const Hierarchy& h, double domain_area, int probes) {
             parent(t.edge_v[e][1]);
         }
         // Face points.
-        layout.bands.push_back(
-            {j, 'f', f0, f1, mesh_band_norm(h, x, f0, f1, probes, area_per_sample)});
+        layout.bands.push_back({j, 'f', f0, f1, norm(f0, f1)});
         for (int32_t f = 0; f < t.num_faces(); ++f) {
             start_entry(layout, f0 + f);
             // Primary: the faces across its edges; then its edge points.

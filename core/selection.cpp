@@ -10,6 +10,27 @@
 
 namespace tesswave {
 
+double impulse_norm(const Hierarchy& h, int32_t begin, int32_t end, double domain_area, int probes,
+                    std::vector<double>& scratch) {
+    const int32_t size = end - begin, n = h.num_samples(h.finest());
+    const int k = std::min<int32_t>(probes, size);
+    if (k <= 0) return 1.0;
+    scratch.resize(n);
+    std::span<double> planes[] = {scratch};
+    double sum = 0;
+    for (int i = 0; i < k; ++i) {
+        // Probes spread evenly through the band (its points are in mesh order).
+        const int32_t id = begin + static_cast<int32_t>((int64_t{2 * i + 1} * size) / (2 * k));
+        std::fill(scratch.begin(), scratch.end(), 0.0);
+        scratch[id] = 1.0;
+        inverse_transform(h, planes);
+        double energy = 0;
+        for (double v : scratch) energy += v * v;
+        sum += std::sqrt(energy * (domain_area / n));
+    }
+    return sum / k;
+}
+
 std::vector<Band> mesh_bands(const Hierarchy& h, double domain_area, int probes) {
     const int J = h.finest();
     std::vector<Band> bands;
@@ -19,26 +40,9 @@ std::vector<Band> mesh_bands(const Hierarchy& h, double domain_area, int probes)
         bands.push_back({j, 'e', e0, f0});
         bands.push_back({j, 'f', f0, f1});
     }
-    const int32_t n = h.num_samples(J);
-    const double area_per_sample = domain_area / n;
-    std::vector<double> x(n, 0.0);
-    std::span<double> planes[] = {x};
+    std::vector<double> scratch;
     for (Band& band : bands) {
-        const int32_t size = band.end - band.begin;
-        const int k = std::min<int32_t>(probes, size);
-        double sum = 0;
-        for (int i = 0; i < k; ++i) {
-            // Probes spread evenly through the band (its points are in mesh order).
-            const int32_t id =
-                band.begin + static_cast<int32_t>((int64_t{2 * i + 1} * size) / (2 * k));
-            std::fill(x.begin(), x.end(), 0.0);
-            x[id] = 1.0;
-            inverse_transform(h, planes);
-            double energy = 0;
-            for (double v : x) energy += v * v;
-            sum += std::sqrt(energy * area_per_sample);
-        }
-        band.norm = k > 0 ? sum / k : 1.0;
+        band.norm = impulse_norm(h, band.begin, band.end, domain_area, probes, scratch);
     }
     return bands;
 }

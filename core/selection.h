@@ -22,6 +22,12 @@ struct Band {
     double norm = 1.0;  // L2 norm of a basis function of the band, in the image domain
 };
 
+// The L2 norm in the image of the basis functions of coefficients [begin, end): the mean over
+// `probes` unit impulses spread through the range, reconstructed to T_J, each sample standing for
+// domain_area / |V_J| pixels. 1 when probes is 0. `scratch` is reused between calls.
+double impulse_norm(const Hierarchy& hierarchy, int32_t begin, int32_t end, double domain_area,
+                    int probes, std::vector<double>& scratch);
+
 // The bands of a hierarchy's finest level, finest last; norms from the reconstruction of unit
 // impulses (up to `probes` per band, averaged) integrated over the domain area.
 std::vector<Band> mesh_bands(const Hierarchy& hierarchy, double domain_area, int probes = 8);
