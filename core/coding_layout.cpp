@@ -152,24 +152,36 @@ CodingLayout grid_layout(int width, int height, int levels, GridWavelet wavelet,
         // The same orientation one level coarser (none for the LL band and the coarsest details).
         const GridBand* coarser = nullptr;
         if (g.type != 0 && b >= 4 && bands[b - 3].level == g.level + 1) coarser = &bands[b - 3];
+        // The 8 neighbour offsets, primary ones first.
+        int dxs[8], dys[8], n = 0, primaries = 0;
+        for (bool primary : {true, false}) {
+            for (int dy = -1; dy <= 1; ++dy) {
+                for (int dx = -1; dx <= 1; ++dx) {
+                    const bool p = g.type == 3   ? (dx && dy)
+                                   : g.type == 1 ? (!dx && dy)
+                                                 : (dx && !dy);
+                    if ((dx || dy) && p == primary) {
+                        dxs[n] = dx;
+                        dys[n++] = dy;
+                        primaries += primary;
+                    }
+                }
+            }
+        }
         for (int y = 0; y < g.height; ++y) {
+            const bool inner_row = y > 0 && y + 1 < g.height;
             for (int xx = 0; xx < g.width; ++xx) {
-                start_entry(layout, (g.y0 + y) * width + g.x0 + xx);
-                for (bool primary : {true, false}) {
-                    for (int dy = -1; dy <= 1; ++dy) {
-                        for (int dx = -1; dx <= 1; ++dx) {
-                            const int yy = y + dy, xn = xx + dx;
-                            if (!(dx || dy) || yy < 0 || yy >= g.height || xn < 0 ||
-                                xn >= g.width) {
-                                continue;
-                            }
-                            const bool p = g.type == 3   ? (dx && dy)
-                                           : g.type == 1 ? (!dx && dy)
-                                                         : (dx && !dy);
-                            if (p != primary) continue;
-                            layout.nb.push_back((g.y0 + yy) * width + g.x0 + xn);
-                            layout.nb_primary.back() += primary;
-                        }
+                const int32_t id = (g.y0 + y) * width + g.x0 + xx;
+                start_entry(layout, id);
+                if (inner_row && xx > 0 && xx + 1 < g.width) {
+                    for (int i = 0; i < 8; ++i) layout.nb.push_back(id + dys[i] * width + dxs[i]);
+                    layout.nb_primary.back() = static_cast<uint8_t>(primaries);
+                } else {
+                    for (int i = 0; i < 8; ++i) {
+                        const int yy = y + dys[i], xn = xx + dxs[i];
+                        if (yy < 0 || yy >= g.height || xn < 0 || xn >= g.width) continue;
+                        layout.nb.push_back(id + dys[i] * width + dxs[i]);
+                        layout.nb_primary.back() += i < primaries;
                     }
                 }
                 if (coarser) {

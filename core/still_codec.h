@@ -33,7 +33,7 @@ struct StillOptions {
     bool aligned = false;
     int levels = 0;        // J (mesh) or decomposition levels (grid); 0: chosen
     double density = 1.0;  // samples per pixel when J is chosen
-    int norm_probes = 2;   // impulses per band for the band norms
+    int norm_probes = 1;   // impulses per band for the band norms
     bool measure = true;   // decode the result once and report its PSNR
     std::function<void(double done, const char* stage)> progress = {};
 };
