@@ -1,0 +1,145 @@
+#include "morph.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "core/error.h"
+#include "core/lifting.h"
+#include "core/render.h"
+#include "core/sampling.h"
+#include "core/strings.h"
+#include "core/validate.h"
+#include "geometry.h"
+
+namespace tesswave::morph {
+namespace {
+
+using Planes = std::vector<std::vector<float>>;
+
+std::vector<std::span<float>> spans(Planes& p) { return {p.begin(), p.end()}; }
+
+// Channels for the morph: RGB (grey widened) plus alpha when both images have it.
+Image with_channels(const Image& image, int channels) {
+    Image out = make_image(image.width, image.height, channels, image.format);
+    for (int c = 0; c < channels; ++c) {
+        const int from = image.channels() < 3 ? 0 : c;
+        out.planes[c] =
+            c < 3 ? image.planes[std::min(from, image.channels() - 1)] : image.planes[3];
+    }
+    return out;
+}
+
+std::vector<Vec2> scaled(const Mesh& m, double W, double H) {
+    std::vector<Vec2> v = m.vertices;
+    const double sx = W / m.width, sy = H / m.height;
+    for (Vec2& p : v) p = {p.x == m.width ? W : p.x * sx, p.y == m.height ? H : p.y * sy};
+    return v;
+}
+
+}  // namespace
+
+Morph::Morph(const Image& a, const Image& b, const Mesh& mesh_a, const Mesh& mesh_b,
+             const MorphOptions& options)
+    : options_(options) {
+    if (mesh_a.num_vertices() != mesh_b.num_vertices() ||
+        mesh_a.face_offsets != mesh_b.face_offsets || mesh_a.face_corners != mesh_b.face_corners) {
+        throw Error("morph: the two meshes do not share one topology");
+    }
+    require_valid(mesh_a, "mesh on A");
+    require_valid(mesh_b, "mesh on B");
+    if (mesh_a.width != a.width || mesh_a.height != a.height || mesh_b.width != b.width ||
+        mesh_b.height != b.height) {
+        throw Error("morph: each mesh must cover its image's pixel rectangle");
+    }
+    width_ = options.width > 0 ? options.width : a.width;
+    height_ = options.height > 0 ? options.height : a.height;
+    topology_ = mesh_a;
+    topology_.width = width_;
+    topology_.height = height_;
+    va_ = scaled(mesh_a, width_, height_);
+    vb_ = scaled(mesh_b, width_, height_);
+    topology_.vertices = va_;
+    const int J = options.levels > 0
+                      ? options.levels
+                      : level_for_density(topology_, width_ * height_, options.density);
+    hierarchy_ = build_hierarchy(topology_, {.levels = J});
+    preview_ = build_hierarchy(topology_, {.levels = std::max(1, J - 2)});
+    const int channels = (a.channels() == 4 && b.channels() == 4) ? 4 : 3;
+    samples_a_ = sample_image(with_channels(a, channels), hierarchy_, mesh_a.vertices);
+    samples_b_ = sample_image(with_channels(b, channels), hierarchy_, mesh_b.vertices);
+    coeff_a_ = samples_a_;
+    coeff_b_ = samples_b_;
+    forward_transform(hierarchy_, spans(coeff_a_));
+    forward_transform(hierarchy_, spans(coeff_b_));
+    for (const Planes* w : {&coeff_a_, &coeff_b_}) {
+        auto& energy = w == &coeff_a_ ? energy_a_ : energy_b_;
+        energy.assign(channels, std::vector<double>(J, 0.0));
+        for (int c = 0; c < channels; ++c) {
+            for (int j = 0; j < J; ++j) {
+                for (int32_t i = hierarchy_.num_samples(j); i < hierarchy_.num_samples(j + 1);
+                     ++i) {
+                    energy[c][j] += double{(*w)[c][i]} * (*w)[c][i];
+                }
+            }
+        }
+    }
+}
+
+std::vector<Vec2> Morph::geometry(double t) const {
+    return interpolate_geometry(topology_, va_, vb_, options_.schedule.shape_weight(t));
+}
+
+Planes Morph::blended(double t) const {
+    if (!(t >= 0 && t <= 1)) throw Error(str("morph: t = ", t, " is outside [0, 1]"));
+    const int J = levels();
+    const Schedule& s = options_.schedule;
+    Planes w = coeff_a_;
+    for (size_t c = 0; c < w.size(); ++c) {
+        for (int level = 0; level <= J; ++level) {
+            const int32_t begin = level == 0 ? 0 : hierarchy_.num_samples(level - 1);
+            const int32_t end = hierarchy_.num_samples(level == 0 ? 0 : level);
+            const float x = static_cast<float>(s.band_weight(level, J + 1, t));
+            double energy = 0;
+            for (int32_t i = begin; i < end; ++i) {
+                w[c][i] = (1 - x) * coeff_a_[c][i] + x * coeff_b_[c][i];
+                energy += double{w[c][i]} * w[c][i];
+            }
+            if (s.kind == ScheduleKind::sharp && level > 0 && energy > 0) {
+                const double target =
+                    (1 - x) * energy_a_[c][level - 1] + x * energy_b_[c][level - 1];
+                const float gain = static_cast<float>(std::sqrt(target / energy));
+                for (int32_t i = begin; i < end; ++i) w[c][i] *= gain;
+            }
+        }
+    }
+    return w;
+}
+
+std::vector<double> Morph::detail_energy(double t) const {
+    const Planes w = blended(t);
+    std::vector<double> e(levels(), 0.0);
+    for (const auto& plane : w) {
+        for (int j = 0; j < levels(); ++j) {
+            for (int32_t i = hierarchy_.num_samples(j); i < hierarchy_.num_samples(j + 1); ++i) {
+                e[j] += double{plane[i]} * plane[i];
+            }
+        }
+    }
+    return e;
+}
+
+Image Morph::frame(double t, const FrameOptions& options) const {
+    Planes w = blended(t);
+    const std::vector<Vec2> v = geometry(t);
+    const Hierarchy& h = options.preview ? preview_ : hierarchy_;
+    const int32_t n = h.num_samples(h.finest());
+    if (options.preview) {
+        for (auto& plane : w) plane.resize(n);  // nested numbering: T_J' is a prefix
+    }
+    inverse_transform(h, spans(w));
+    const RenderPlan plan = plan_render(h, v, width_, height_, width_, height_);
+    std::vector<std::span<const float>> in(w.begin(), w.end());
+    return render(plan, in, SampleFormat::u8);
+}
+
+}  // namespace tesswave::morph

@@ -1,0 +1,65 @@
+// A morph between two images on two meshes of one topology (DESIGN.md 3): both images are
+// sampled on their own mesh at level J and transformed, so coefficient k of A and of B describe
+// corresponding material; a frame at time t blends the coefficients band by band on the
+// schedule, reconstructs, and renders on the interpolated geometry.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "core/hierarchy.h"
+#include "core/image.h"
+#include "core/mesh.h"
+#include "schedule.h"
+
+namespace tesswave::morph {
+
+struct MorphOptions {
+    int levels = 0;             // J; 0: chosen for `density`
+    double density = 2.0;       // samples per output pixel when J is chosen
+    int width = 0, height = 0;  // output size; 0: image A's
+    Schedule schedule = {};
+};
+
+struct FrameOptions {
+    bool preview = false;  // render the coarse levels only (J - 2, at least 1): fast look-ups
+};
+
+class Morph {
+  public:
+    // mesh_a lies on A's pixel rectangle, mesh_b on B's; same vertex count and faces (Error
+    // otherwise, or when either is invalid). The images may differ in size and channel count
+    // (grey is widened to RGB, alpha dropped unless both have it).
+    Morph(const Image& a, const Image& b, const Mesh& mesh_a, const Mesh& mesh_b,
+          const MorphOptions& options);
+
+    // The frame at t in [0, 1].
+    Image frame(double t, const FrameOptions& options = {}) const;
+
+    // The T0 vertices at t (output pixels), repaired if they fold.
+    std::vector<Vec2> geometry(double t) const;
+
+    // For tests and reports: the samples of A and B on their meshes (level J), the coefficients
+    // blended at t before reconstruction, and the energy (sum of squares over channels) of each
+    // detail level of those coefficients (index j: the details of step j).
+    const std::vector<std::vector<float>>& samples_a() const { return samples_a_; }
+    const std::vector<std::vector<float>>& samples_b() const { return samples_b_; }
+    std::vector<std::vector<float>> blended(double t) const;
+    std::vector<double> detail_energy(double t) const;
+
+    int levels() const { return hierarchy_.finest(); }
+    int64_t samples() const { return hierarchy_.num_samples(hierarchy_.finest()); }
+    int width() const { return width_; }
+    int height() const { return height_; }
+
+  private:
+    MorphOptions options_;
+    int width_ = 0, height_ = 0;
+    Mesh topology_;                  // mesh_a's faces on the output domain
+    std::vector<Vec2> va_, vb_;      // T0 vertices of A and B in output pixels
+    Hierarchy hierarchy_, preview_;  // levels J and the preview level
+    std::vector<std::vector<float>> samples_a_, samples_b_, coeff_a_, coeff_b_;
+    std::vector<std::vector<double>> energy_a_, energy_b_;  // [channel][detail level]
+};
+
+}  // namespace tesswave::morph

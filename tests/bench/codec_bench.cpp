@@ -1,0 +1,161 @@
+// Still-image codec speed beside OpenJPEG (the JPEG 2000 peer) on a 768x512 RGB procedural scene
+// quantized to 8 bits like a file's pixels, single thread: encode and decode at 0.5 and 1 bpp
+// (budget bpp * W * H / 8 bytes, as `tesswave compress --bpp`) and lossless. The `pixels` counter
+// is the throughput (M/s = MPixel/s), so that the ratios to the peer can be read off one run
+// (`--benchmark_filter=Codec`). It is over the thread's CPU time (the CPU column, or Time for
+// manual_time): both codecs run on one thread, and CPU time, unlike wall time, does not grow when
+// other processes share the cores.
+//
+// What each timing holds:
+// - encode, ours: compress_image() from its call to its "measuring" stage: choosing the mesh,
+//   the band norms (impulse probes), sampling, colour transform, analysis, quantization and the
+//   bit-plane coder, header included. compress_image() then decodes its own stream once to report
+//   the PSNR; that part is left out (UseManualTime: Time is the encoder, CPU the whole call), and
+//   `check_share` is its share of the whole call.
+// - decode, ours: decompress_image() in all: header, the domain (hierarchy or grid layout, and
+//   for the mesh the sample-to-pixel plan), bit-plane decoding, dequantization, inverse transform,
+//   colour transform and the image planes.
+// - JPEG 2000: encode_jpeg2000() and decode_jpeg2000() in all, in memory, with the conversions
+//   between the float planes and OpenJPEG's integer components.
+#include <benchmark/benchmark.h>
+
+#include <cmath>
+#include <cstdint>
+#include <ctime>
+#include <span>
+#include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
+
+#include "core/metrics.h"
+#include "core/peer_jpeg2000.h"
+#include "core/still_codec.h"
+#include "core/strings.h"
+#include "samples/sample_images.h"
+
+namespace tesswave {
+namespace {
+
+constexpr int kWidth = 768, kHeight = 512;
+constexpr double kPixels = double{kWidth} * kHeight;
+
+enum class Coder { jpeg2000, mesh, mesh_aligned, grid53, grid97 };
+
+const Image& scene() {
+    static const Image image = [] {
+        Image out = samples::scene_image(kWidth, kHeight);
+        for (auto& plane : out.planes) {
+            for (float& v : plane) v = std::round(v * 255.0f) / 255.0f;
+        }
+        return out;
+    }();
+    return image;
+}
+
+int64_t budget(double bpp) { return static_cast<int64_t>(std::floor(bpp * kPixels / 8)); }
+
+// bpp 0: lossless.
+StillOptions still_options(Coder coder, double bpp) {
+    StillOptions o{.lossless = bpp == 0, .max_bytes = budget(bpp)};
+    if (coder == Coder::grid53) o.transform = TwiTransform::grid53;
+    if (coder == Coder::grid97) o.transform = TwiTransform::grid97;
+    o.aligned = coder == Coder::mesh_aligned;
+    return o;
+}
+
+double thread_seconds() {
+    std::timespec t;
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+    return static_cast<double>(t.tv_sec) + static_cast<double>(t.tv_nsec) * 1e-9;
+}
+
+void finish(benchmark::State& state, size_t bytes, double psnr) {
+    state.counters["pixels"] = benchmark::Counter(static_cast<double>(state.iterations()) * kPixels,
+                                                  benchmark::Counter::kIsRate);
+    state.counters["bpp"] = static_cast<double>(bytes) * 8 / kPixels;
+    state.counters["PSNR"] = psnr;
+}
+
+void BM_Codec_encode(benchmark::State& state, Coder coder, double bpp) {
+    const Image& image = scene();
+    if (coder == Coder::jpeg2000) {
+        std::vector<uint8_t> bytes;
+        for (auto _ : state) {
+            bytes = encode_jpeg2000(image, {.target_bytes = budget(bpp)});
+            benchmark::DoNotOptimize(bytes.data());
+        }
+        finish(state, bytes.size(), psnr(image, decode_jpeg2000(bytes)).all);
+        return;
+    }
+    StillOptions o = still_options(coder, bpp);
+    double coded = 0;
+    o.progress = [&](double, const char* stage) {
+        if (std::string_view(stage) == "measuring") coded = thread_seconds();
+    };
+    StillResult r;
+    double encode_time = 0, whole_time = 0;
+    for (auto _ : state) {
+        coded = 0;
+        const double start = thread_seconds();
+        r = compress_image(image, o);
+        const double end = thread_seconds();
+        benchmark::DoNotOptimize(r.file.data());
+        if (coded == 0) {
+            state.SkipWithError("compress_image() no longer reports its \"measuring\" stage");
+            return;
+        }
+        state.SetIterationTime(coded - start);
+        encode_time += coded - start;
+        whole_time += end - start;
+    }
+    finish(state, r.file.size(), r.psnr);
+    state.counters["check_share"] = 1 - encode_time / whole_time;
+}
+
+void BM_Codec_decode(benchmark::State& state, Coder coder, double bpp) {
+    const Image& image = scene();
+    const std::vector<uint8_t> bytes = coder == Coder::jpeg2000
+                                           ? encode_jpeg2000(image, {.target_bytes = budget(bpp)})
+                                           : compress_image(image, still_options(coder, bpp)).file;
+    Image out;
+    for (auto _ : state) {
+        out = coder == Coder::jpeg2000 ? decode_jpeg2000(bytes) : decompress_image(bytes, "bench");
+        benchmark::DoNotOptimize(out.planes[0].data());
+    }
+    finish(state, bytes.size(), psnr(image, out).all);
+}
+
+// Grouped by rate, the peer first, so each figure sits beside the one it is compared with.
+[[maybe_unused]] const bool registered = [] {
+    struct Entry {
+        const char* name;
+        Coder coder;
+    };
+    const Entry lossy[] = {{"jpeg2000", Coder::jpeg2000},
+                           {"mesh", Coder::mesh},
+                           {"mesh_aligned", Coder::mesh_aligned},
+                           {"grid53", Coder::grid53},
+                           {"grid97", Coder::grid97}};
+    const Entry lossless[] = {{"jpeg2000", Coder::jpeg2000},
+                              {"mesh_aligned", Coder::mesh_aligned},
+                              {"grid53", Coder::grid53}};
+    const std::pair<double, const char*> rates[] = {
+        {0.5, "0.5bpp"}, {1.0, "1bpp"}, {0, "lossless"}};
+    for (const auto& [bpp, rate] : rates) {
+        for (const bool encode : {true, false}) {
+            for (const Entry& e : bpp == 0 ? std::span<const Entry>(lossless) : lossy) {
+                const std::string name =
+                    str(encode ? "BM_Codec_encode/" : "BM_Codec_decode/", e.name, "/", rate);
+                auto* b = benchmark::RegisterBenchmark(
+                    name.c_str(), encode ? BM_Codec_encode : BM_Codec_decode, e.coder, bpp);
+                b->Unit(benchmark::kMillisecond);
+                if (encode && e.coder != Coder::jpeg2000) b->UseManualTime();
+            }
+        }
+    }
+    return true;
+}();
+
+}  // namespace
+}  // namespace tesswave

@@ -1,0 +1,204 @@
+#include "morph/morph.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+
+#include "core/error.h"
+#include "core/grid_mesh.h"
+#include "core/metrics.h"
+#include "core/render.h"
+#include "core/validate.h"
+#include "morph/geometry.h"
+#include "morph/schedule.h"
+#include "samples/sample_images.h"
+
+namespace tesswave::morph {
+namespace {
+
+// A smooth warp of a grid mesh: interior vertices pushed by a sine field (border on the border).
+Mesh warped_grid(double W, double H, int cols, int rows, double amount) {
+    Mesh m = grid_mesh(W, H, cols, rows);
+    for (Vec2& p : m.vertices) {
+        const double fx = std::sin(M_PI * p.x / W) * std::sin(M_PI * p.y / H);
+        p = {p.x + amount * fx * std::sin(2 * M_PI * p.y / H),
+             p.y + amount * fx * std::cos(M_PI * p.x / W)};
+    }
+    return m;
+}
+
+Image constant(int w, int h, float r, float g, float b) {
+    Image image = make_image(w, h, 3);
+    for (int y = 0; y < h; ++y) {
+        for (int x = 0; x < w; ++x) {
+            image.at(0, x, y) = r;
+            image.at(1, x, y) = g;
+            image.at(2, x, y) = b;
+        }
+    }
+    return image;
+}
+
+// Energy of an image's high frequencies: the squared difference to its 5x5 box blur.
+double detail_energy(const Image& image) {
+    double e = 0;
+    for (const auto& plane : image.planes) {
+        for (int y = 2; y < image.height - 2; ++y) {
+            for (int x = 2; x < image.width - 2; ++x) {
+                double mean = 0;
+                for (int dy = -2; dy <= 2; ++dy) {
+                    for (int dx = -2; dx <= 2; ++dx) mean += plane[(y + dy) * image.width + x + dx];
+                }
+                const double d = plane[y * image.width + x] - mean / 25;
+                e += d * d;
+            }
+        }
+    }
+    return e;
+}
+
+TEST(Morph, endpoints_reproduce_the_images_up_to_resampling) {
+    const Image a = samples::scene_image(96, 72, 1), b = samples::scene_image(96, 72, 2);
+    const Mesh ma = grid_mesh(96, 72, 4, 3), mb = warped_grid(96, 72, 4, 3, 6);
+    const Morph m(a, b, ma, mb, {.density = 3.0});
+    EXPECT_GT(psnr(a, m.frame(0)).all, 30.0);
+    EXPECT_GT(psnr(b, m.frame(1)).all, 30.0);
+}
+
+TEST(Morph, linear_schedule_is_warp_and_cross_dissolve) {
+    const Image a = samples::scene_image(80, 64, 3), b = samples::scene_image(80, 64, 4);
+    const Mesh ma = warped_grid(80, 64, 4, 4, -4), mb = warped_grid(80, 64, 4, 4, 5);
+    const Morph m(a, b, ma, mb, {.levels = 4});
+    for (double t : {0.0, 0.3, 0.5, 1.0}) {
+        // Each image warped onto the in-between geometry through the same mesh map, dissolved.
+        const Hierarchy h = build_hierarchy(ma, {.levels = 4});
+        const RenderPlan plan = plan_render(h, m.geometry(t), 80, 64, 80, 64);
+        std::vector<std::span<const float>> sa(m.samples_a().begin(), m.samples_a().end());
+        std::vector<std::span<const float>> sb(m.samples_b().begin(), m.samples_b().end());
+        const Image wa = render(plan, sa, SampleFormat::f32),
+                    wb = render(plan, sb, SampleFormat::f32);
+        const Image f = m.frame(t);
+        double worst = 0;
+        for (int c = 0; c < 3; ++c) {
+            for (size_t i = 0; i < f.planes[c].size(); ++i) {
+                const double dissolve = (1 - t) * wa.planes[c][i] + t * wb.planes[c][i];
+                worst = std::max(worst, std::abs(f.planes[c][i] - dissolve));
+            }
+        }
+        EXPECT_LT(worst, 2e-6) << "t = " << t;
+    }
+}
+
+TEST(Morph, constant_images_give_constant_frames_without_seams) {
+    const Image a = constant(70, 50, 0.2f, 0.5f, 0.9f), b = constant(70, 50, 0.8f, 0.1f, 0.3f);
+    const Mesh ma = warped_grid(70, 50, 5, 4, 3), mb = warped_grid(70, 50, 5, 4, -3);
+    for (ScheduleKind kind : {ScheduleKind::linear, ScheduleKind::bands, ScheduleKind::sharp}) {
+        const Morph m(a, b, ma, mb, {.levels = 4, .schedule = {.kind = kind}});
+        for (double t : {0.0, 0.25, 0.5, 0.9}) {
+            const Image f = m.frame(t);
+            for (int c = 0; c < 3; ++c) {
+                const auto [lo, hi] = std::minmax_element(f.planes[c].begin(), f.planes[c].end());
+                EXPECT_LT(*hi - *lo, 1e-5f) << "t = " << t << " channel " << c;
+            }
+            const double expect = (1 - t) * 0.2 + t * 0.8;
+            if (kind != ScheduleKind::bands) {
+                EXPECT_NEAR(f.planes[0][0], expect, 1e-5);
+            }
+        }
+    }
+}
+
+// Smoothed random noise: textures with no correlation between seeds.
+Image noise(int w, int h, uint64_t seed) {
+    std::mt19937_64 rng(seed);
+    Image raw = make_image(w, h, 3), out = make_image(w, h, 3);
+    for (auto& plane : raw.planes) {
+        for (float& v : plane) v = static_cast<float>((rng() >> 11) * 0x1.0p-53);
+    }
+    for (int c = 0; c < 3; ++c) {
+        for (int y = 0; y < h; ++y) {
+            for (int x = 0; x < w; ++x) {
+                float sum = 0;
+                for (int d = -1; d <= 1; ++d) sum += raw.at(c, std::clamp(x + d, 0, w - 1), y);
+                out.at(c, x, y) = 0.2f + 0.2f * sum;
+            }
+        }
+    }
+    return out;
+}
+
+TEST(Morph, sharp_keeps_the_detail_energy_of_the_middle_frame) {
+    // Two unrelated textures on one geometry: a dissolve halves their detail energy mid-way.
+    const Image a = noise(128, 96, 5), b = noise(128, 96, 9);
+    const Mesh mesh = grid_mesh(128, 96, 4, 3);
+    double ends = 0, middle[2] = {};
+    for (int k = 0; k < 2; ++k) {
+        const Schedule s{.kind = k ? ScheduleKind::sharp : ScheduleKind::linear};
+        const Morph m(a, b, mesh, mesh, {.density = 2.0, .schedule = s});
+        ends = 0.5 * (detail_energy(m.frame(0)) + detail_energy(m.frame(1)));
+        middle[k] = detail_energy(m.frame(0.5));
+    }
+    EXPECT_LT(middle[0], 0.7 * ends);          // linear sags
+    EXPECT_NEAR(middle[1], ends, 0.1 * ends);  // sharp does not
+}
+
+TEST(Morph, preview_renders_from_the_coarse_levels) {
+    const Image a = samples::scene_image(96, 72, 1), b = samples::scene_image(96, 72, 2);
+    const Morph m(a, b, grid_mesh(96, 72, 4, 3), warped_grid(96, 72, 4, 3, 5), {.levels = 5});
+    const Image full = m.frame(0.5), preview = m.frame(0.5, {.preview = true});
+    EXPECT_EQ(preview.width, 96);
+    EXPECT_GT(psnr(full, preview).all, 20.0);  // the same picture, less detail
+    EXPECT_LT(detail_energy(preview), detail_energy(full));
+}
+
+TEST(Geometry, folds_are_detected_and_repaired) {
+    // Two valid placements of a 3x3 grid's interior vertices (found by a seeded random search)
+    // whose plain interpolation folds half-way.
+    const Mesh a = grid_mesh(60, 60, 3, 3);
+    std::vector<Vec2> va = a.vertices, vb = a.vertices;
+    va[5] = {15.4, 11.2}, vb[5] = {11.4, 23.7};
+    va[6] = {43.2, 30.7}, vb[6] = {53.2, 16.4};
+    va[9] = {26.0, 29.1}, vb[9] = {37.7, 37.5};
+    va[10] = {36.6, 42.3}, vb[10] = {48.3, 43.0};
+    ASSERT_TRUE(folded_faces(a, va).empty());
+    ASSERT_TRUE(folded_faces(a, vb).empty());
+    std::vector<Vec2> plain(va.size());
+    for (size_t i = 0; i < va.size(); ++i) plain[i] = lerp(va[i], vb[i], 0.5);
+    ASSERT_FALSE(folded_faces(a, plain).empty()) << "plain interpolation must fold here";
+    GeometryReport report;
+    const std::vector<Vec2> v = interpolate_geometry(a, va, vb, 0.5, &report);
+    EXPECT_GT(report.folded, 0);
+    EXPECT_GT(report.iterations, 0);
+    EXPECT_TRUE(folded_faces(a, v).empty());
+    Mesh repaired = a;
+    repaired.vertices = v;
+    EXPECT_TRUE(validate(repaired).ok());
+    // Every t of a morph between them renders on a valid mesh.
+    for (double t = 0; t <= 1; t += 0.05) {
+        EXPECT_TRUE(folded_faces(a, interpolate_geometry(a, va, vb, t)).empty()) << t;
+    }
+}
+
+TEST(Schedule, parsing_and_errors) {
+    const auto w = parse_level_windows("0:0-1,3:0.4-0.6", 5);
+    EXPECT_EQ(w[3].start, 0.4);
+    EXPECT_EQ(w[3].end, 0.6);
+    EXPECT_THROW(parse_level_windows("3:0.6-0.4", 5), Error);
+    EXPECT_THROW(parse_level_windows("9:0-1", 5), Error);
+    EXPECT_THROW(parse_level_windows("x", 5), Error);
+    EXPECT_THROW(parse_schedule_kind("wobbly"), Error);
+    const Schedule s = parse_schedule_json(
+        R"({"schedule": "bands", "levels": {"1": [0.2, 0.8]}, "shape": [0, 0.5]})", "s.json", 4);
+    EXPECT_EQ(s.kind, ScheduleKind::bands);
+    EXPECT_EQ(s.levels[1].start, 0.2);
+    EXPECT_DOUBLE_EQ(s.shape_weight(0.5), 1.0);
+    EXPECT_THROW(parse_schedule_json("{\"levels\": {\"7\": [0, 1]}}", "s.json", 4), Error);
+    EXPECT_THROW(parse_schedule_json("[", "s.json", 4), Error);
+    EXPECT_DOUBLE_EQ(s.band_weight(1, 4, 0.5), 0.5);
+    EXPECT_DOUBLE_EQ(s.band_weight(1, 4, 0.1), 0.0);
+}
+
+}  // namespace
+}  // namespace tesswave::morph
