@@ -10,7 +10,9 @@ job=${1:-demo}
 
 packages=(cmake ninja-build g++ pkg-config clang-format ffmpeg
           libopencv-dev libopenimageio-dev libgtest-dev libgmock-dev libbenchmark-dev
-          libcli11-dev nlohmann-json3-dev libopenjp2-7-dev libopenjp2-tools)
+          libcli11-dev nlohmann-json3-dev libopenjp2-7-dev libopenjp2-tools
+          libceres-dev
+          libavformat-dev libavcodec-dev libavutil-dev libswscale-dev libavfilter-dev)
 missing=()
 for p in "${packages[@]}"; do
     dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

@@ -70,5 +70,6 @@ void add_analyze_command(CLI::App& app);
 void add_samples_command(CLI::App& app);
 void add_codec_commands(CLI::App& app);
 void add_compare_command(CLI::App& app);
+void add_morph_commands(CLI::App& app);
 
 }  // namespace tesswave::cli

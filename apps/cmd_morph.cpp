@@ -1,0 +1,258 @@
+// tesswave morph / inbetween: morphs between two images on meshes of one topology, the frequency
+// bands blended on their own schedules.
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <nlohmann/json.hpp>
+
+#include "cli.h"
+#include "core/error.h"
+#include "core/file_io.h"
+#include "core/grid_mesh.h"
+#include "core/image_io.h"
+#include "core/mesh_io.h"
+#include "core/sampling.h"
+#include "core/strings.h"
+#include "core/video_io.h"
+#include "core/voronoi.h"
+#include "morph/auto_match.h"
+#include "morph/morph.h"
+#include "morph/pair.h"
+
+namespace fs = std::filesystem;
+
+namespace tesswave::cli {
+namespace {
+
+struct MorphArgs {
+    std::string a, b, output, points_a, points_b, triangles, mesh, schedule = "linear", bands,
+                                                                   schedule_file, shape, size;
+    bool automatic = false, preview = false, overwrite = false, json = false;
+    int frames = 30, levels = 0;
+    double fps = 25, at = -1, density = 2.0;
+};
+
+enum class OutputKind { video, gif, folder, still };
+
+OutputKind output_kind(const MorphArgs& a) {
+    const std::string ext = fs::path(a.output).extension().string();
+    if (a.at >= 0) {
+        if (ext != ".png" && ext != ".tif" && ext != ".tiff" && ext != ".jpg" && ext != ".exr") {
+            throw Error(str(a.output, ": --at writes one image (.png, .tif, .jpg, .exr)"));
+        }
+        return OutputKind::still;
+    }
+    if (ext == ".mp4" || ext == ".mkv" || ext == ".mov") return OutputKind::video;
+    if (ext == ".gif") return OutputKind::gif;
+    if (ext.empty()) return OutputKind::folder;
+    throw Error(
+        str(a.output, ": write .mp4, .mkv, .gif, a folder of PNG frames, or --at with an image"));
+}
+
+morph::Correspondences correspondences(const MorphArgs& a, const Image& ia, const Image& ib,
+                                       nlohmann::json& report) {
+    morph::Correspondences c;
+    if (a.automatic) {
+        const morph::Matches m = morph::auto_match(ia, ib);
+        report["matches"] = {{"flow", m.from_flow},
+                             {"features", m.from_features},
+                             {"rejected_forward_backward", m.rejected_fb},
+                             {"rejected_ransac", m.rejected_ransac}};
+        c = {m.a, m.b};
+    } else {
+        if (a.points_a.empty() || a.points_b.empty()) {
+            throw Error("give --points-a and --points-b, or --auto");
+        }
+        c = {read_points(a.points_a), read_points(a.points_b)};
+    }
+    morph::check_correspondences(c, ia.width, ia.height, ib.width, ib.height,
+                                 a.automatic ? a.a : a.points_a, a.automatic ? a.b : a.points_b);
+    return c;
+}
+
+// The mesh on A for fitting: "grid[:CxR]" or "voronoi[:N]"; cells about 24 px by default.
+Mesh fitting_mesh(const std::string& spec, const Image& image) {
+    const std::string kind = spec.substr(0, spec.find(':'));
+    const std::string count =
+        spec.find(':') == std::string::npos ? "" : spec.substr(spec.find(':') + 1);
+    const double W = image.width, H = image.height;
+    if (kind == "grid") {
+        auto [c, r] = count.empty() ? std::pair{std::max(1, static_cast<int>(std::lround(W / 24))),
+                                                std::max(1, static_cast<int>(std::lround(H / 24)))}
+                                    : parse_cells(count, "--mesh grid");
+        return grid_mesh(W, H, c, r);
+    }
+    if (kind == "voronoi") {
+        const int n = count.empty() ? std::max(4, static_cast<int>(W * H / 576)) : std::stoi(count);
+        return voronoi_mesh(W, H, {.sites = n, .seed = 1, .lloyd_iterations = 2});
+    }
+    throw Error(str("--mesh: '", spec, "' is not triangulation, grid[:CxR] or voronoi[:N]"));
+}
+
+morph::PairMeshes pair_meshes(const MorphArgs& a, const morph::Correspondences& c, const Image& ia,
+                              const Image& ib) {
+    if (!a.triangles.empty()) {
+        const auto t = morph::parse_triangles(read_file(a.triangles), static_cast<int>(c.a.size()),
+                                              a.triangles);
+        return morph::triangles_pair(c, t, ia.width, ia.height, ib.width, ib.height);
+    }
+    const std::string spec = a.mesh.empty() ? (a.automatic ? "grid" : "triangulation") : a.mesh;
+    if (spec == "triangulation") {
+        return morph::triangulated_pair(c, ia.width, ia.height, ib.width, ib.height);
+    }
+    return morph::fitted_pair(fitting_mesh(spec, ia), c, ib.width, ib.height);
+}
+
+morph::Schedule schedule(const MorphArgs& a, int levels) {
+    morph::Schedule s;
+    if (!a.schedule_file.empty()) {
+        s = morph::parse_schedule_json(read_file(a.schedule_file), a.schedule_file, levels);
+    } else {
+        s.kind = morph::parse_schedule_kind(a.schedule);
+        if (!a.bands.empty()) s.levels = morph::parse_level_windows(a.bands, levels);
+    }
+    if (!a.shape.empty()) {
+        const auto w = morph::parse_level_windows("0:" + a.shape, 1);
+        s.shape = w[0];
+    }
+    return s;
+}
+
+void run_morph(const MorphArgs& a) {
+    const auto start = std::chrono::steady_clock::now();
+    const OutputKind kind = output_kind(a);
+    if (a.frames < 1 && kind != OutputKind::still) throw Error("--frames must be at least 1");
+    if (kind == OutputKind::folder) {
+        check_folder(a.output, a.overwrite);
+    } else {
+        check_output(a.output, a.overwrite, {a.a, a.b});
+    }
+    const Image ia = read_image(a.a), ib = read_image(a.b);
+    nlohmann::json report = {{"a", a.a}, {"b", a.b}, {"output", a.output}};
+    ProgressBar bar;
+    bar.update(0.0, "correspondences");
+    const morph::Correspondences c = correspondences(a, ia, ib, report);
+    bar.update(0.1, "meshes");
+    const morph::PairMeshes pair = pair_meshes(a, c, ia, ib);
+    report["correspondences"] = c.a.size();
+    report["mesh"] = pair.description;
+    morph::MorphOptions o{.levels = a.levels, .density = a.density};
+    if (!a.size.empty()) {
+        auto [w, h] = parse_cells(a.size, "--size");
+        o.width = w;
+        o.height = h;
+    }
+    // Schedules name the levels 0 (base) .. J.
+    const int out_pixels =
+        (o.width > 0 ? o.width : ia.width) * (o.height > 0 ? o.height : ia.height);
+    if (o.levels == 0) o.levels = level_for_density(pair.a, out_pixels, a.density);
+    o.schedule = schedule(a, o.levels + 1);
+    bar.update(0.2, "transforms");
+    const morph::Morph morph(ia, ib, pair.a, pair.b, o);
+    report["levels"] = morph.levels();
+    report["samples"] = morph.samples();
+    const morph::FrameOptions fo{.preview = a.preview};
+    if (kind == OutputKind::still) {
+        write_image(morph.frame(a.at, fo), a.output);
+    } else {
+        std::vector<Image> gif;
+        std::unique_ptr<VideoWriter> video;
+        if (kind == OutputKind::video) {
+            video = std::make_unique<VideoWriter>(a.output, morph.width(), morph.height(),
+                                                  VideoWriterOptions{.fps = a.fps});
+        }
+        if (kind == OutputKind::folder) prepare_folder(a.output, a.overwrite);
+        for (int k = 0; k < a.frames; ++k) {
+            bar.update(0.3 + 0.7 * k / a.frames, "frames");
+            const double t = a.frames == 1 ? 0.0 : static_cast<double>(k) / (a.frames - 1);
+            Image f = morph.frame(t, fo);
+            if (video) video->write(f);
+            if (kind == OutputKind::gif) gif.push_back(std::move(f));
+            if (kind == OutputKind::folder) {
+                char name[32];
+                std::snprintf(name, sizeof name, "frame_%04d.png", k);
+                write_image(f, (fs::path(a.output) / name).string());
+            }
+        }
+        if (video) video->finish();
+        if (kind == OutputKind::gif) write_gif(gif, a.output, a.fps);
+        report["frames"] = a.frames;
+    }
+    bar.update(1.0, "done");
+    report["seconds"] =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    if (a.json) {
+        std::printf("%s\n", report.dump(2).c_str());
+    } else {
+        std::printf("%s + %s -> %s: %s, J=%d, %lld samples, %.2f s\n", a.a.c_str(), a.b.c_str(),
+                    a.output.c_str(), pair.description.c_str(), morph.levels(),
+                    static_cast<long long>(morph.samples()), report["seconds"].get<double>());
+    }
+}
+
+void add_schedule_options(CLI::App* cmd, MorphArgs& a) {
+    cmd->add_option("--schedule", a.schedule, "Band schedule: linear, bands or sharp")
+        ->capture_default_str()
+        ->check(CLI::IsMember({"linear", "bands", "sharp"}));
+    cmd->add_option("--bands", a.bands, "Per-level windows for 'bands': LEVEL:START-END,...");
+    cmd->add_option("--schedule-file", a.schedule_file, "Schedule as JSON (see README)");
+    cmd->add_option("--shape", a.shape, "Geometry timing window START-END (default 0-1)");
+    cmd->add_option("--density", a.density, "Mesh samples per output pixel")
+        ->capture_default_str()
+        ->check(CLI::Range(0.1, 16.0));
+    cmd->add_option("-J,--levels", a.levels, "Mesh level J (default from --density)")
+        ->check(CLI::Range(1, 10));
+    cmd->add_flag("-y,--overwrite", a.overwrite, "Overwrite outputs");
+    cmd->add_flag("--json", a.json, "Print a JSON report");
+}
+
+}  // namespace
+
+void add_morph_commands(CLI::App& app) {
+    auto a = std::make_shared<MorphArgs>();
+    CLI::App* cmd =
+        app.add_subcommand("morph", "Morph between two images (bands blended on schedules)");
+    cmd->add_option("a", a->a, "First image")->required();
+    cmd->add_option("b", a->b, "Second image")->required();
+    cmd->add_option("-o,--output", a->output,
+                    "out.mp4, out.mkv, out.gif, a folder for PNG frames, or an image with --at")
+        ->required();
+    cmd->add_option("--points-a", a->points_a, "Points on A: 'x y' lines or a JSON list");
+    cmd->add_option("--points-b", a->points_b, "The corresponding points on B, same order");
+    cmd->add_option("--triangles", a->triangles, "Triangles over the points: 'i j k' lines");
+    cmd->add_flag("--auto", a->automatic, "Find correspondences (dense flow + features)");
+    cmd->add_option("--mesh", a->mesh,
+                    "triangulation (default with points), grid[:CxR] or voronoi[:N] fitted with "
+                    "Ceres (default grid with --auto)");
+    cmd->add_option("--frames", a->frames, "Frames from A to B")->capture_default_str();
+    cmd->add_option("--fps", a->fps, "Frames per second of MP4/GIF output")
+        ->capture_default_str()
+        ->check(CLI::Range(0.1, 1000.0));
+    cmd->add_option("--at", a->at, "Only the frame at this t, to an image")
+        ->check(CLI::Range(0.0, 1.0));
+    cmd->add_flag("--preview", a->preview, "Render from the coarse bands only (fast look-ups)");
+    cmd->add_option("--size", a->size, "Output size WxH (default: A's)");
+    add_schedule_options(cmd, *a);
+    cmd->callback([a] { run_morph(*a); });
+
+    auto b = std::make_shared<MorphArgs>();
+    cmd = app.add_subcommand("inbetween",
+                             "The frame between two frames, from automatic correspondences");
+    cmd->add_option("f0", b->a, "First frame")->required();
+    cmd->add_option("f1", b->b, "Second frame")->required();
+    cmd->add_option("-o,--output", b->output, "Output image")->required();
+    cmd->add_option("--t", b->at, "Time of the frame between 0 and 1")
+        ->capture_default_str()
+        ->check(CLI::Range(0.0, 1.0));
+    cmd->add_option("--mesh", b->mesh, "grid[:CxR] (default) or voronoi[:N]");
+    add_schedule_options(cmd, *b);
+    cmd->callback([b] {
+        b->automatic = true;
+        if (b->at < 0) b->at = 0.5;
+        run_morph(*b);
+    });
+}
+
+}  // namespace tesswave::cli

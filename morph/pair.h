@@ -1,0 +1,50 @@
+// The pair's meshes (DESIGN.md 3): two meshes of one topology, one on each image, from
+// corresponding points. Correspondence files are `x y` lines (the format face-landmark tools
+// write) or a JSON list, in each image's own pixels, same order in both; an optional triangle
+// file has `i j k` lines of point indices.
+#pragma once
+
+#include <array>
+#include <string>
+#include <vector>
+
+#include "core/mesh.h"
+
+namespace tesswave::morph {
+
+struct Correspondences {
+    std::vector<Vec2> a, b;
+};
+
+// Checks a pair of point lists against their images' sizes: equal counts, at least 3, finite,
+// inside [0,W]x[0,H], no duplicates within an image. Error names the file and the point.
+void check_correspondences(const Correspondences& c, double width_a, double height_a,
+                           double width_b, double height_b, const std::string& name_a,
+                           const std::string& name_b);
+
+// `i j k` lines (# comments), indices into a list of `points` points. Error names the line.
+std::vector<std::array<int32_t, 3>> parse_triangles(const std::string& text, int points,
+                                                    const std::string& name);
+
+struct PairMeshes {
+    Mesh a, b;
+    std::string description;
+};
+
+// Delaunay triangulation of A's points plus the domain corners and `border_points` points a side,
+// the same triangles on B's points (the border points scaled to B's border). Error when a
+// triangle flips or the mesh is invalid in B (the correspondences cross).
+PairMeshes triangulated_pair(const Correspondences& c, double width_a, double height_a,
+                             double width_b, double height_b, int border_points = 3);
+
+// The given triangles over the points as they are (they must tile each image: include points on
+// the corners and the border). Error names the rule the mesh breaks in A or in B.
+PairMeshes triangles_pair(const Correspondences& c, const std::vector<std::array<int32_t, 3>>& t,
+                          double width_a, double height_a, double width_b, double height_b);
+
+// A mesh on A (grid or Voronoi, any valid tessellation of A's rectangle) fitted to the
+// correspondences on B with Ceres (core/mesh_fit.h). Error when no valid mesh fits.
+PairMeshes fitted_pair(const Mesh& mesh_a, const Correspondences& c, double width_b,
+                       double height_b);
+
+}  // namespace tesswave::morph

@@ -1,0 +1,120 @@
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "core/error.h"
+#include "core/grid_mesh.h"
+#include "core/metrics.h"
+#include "morph/auto_match.h"
+#include "morph/morph.h"
+#include "morph/pair.h"
+#include "samples/sample_pair.h"
+#include "test_meshes.h"
+
+namespace tesswave::morph {
+namespace {
+
+using testing::error_of;
+
+TEST(MorphPair, bad_correspondences_are_refused_with_the_file_and_point) {
+    const Correspondences ok{{{1, 1}, {10, 2}, {5, 9}}, {{2, 1}, {11, 3}, {4, 8}}};
+    EXPECT_NO_THROW(check_correspondences(ok, 20, 20, 20, 20, "a.txt", "b.txt"));
+    Correspondences c = ok;
+    c.b.pop_back();
+    EXPECT_NE(error_of([&] {
+                  check_correspondences(c, 20, 20, 20, 20, "a.txt", "b.txt");
+              }).find("same count"),
+              std::string::npos);
+    c = ok;
+    c.a[1] = {NAN, 2};
+    EXPECT_NE(error_of([&] {
+                  check_correspondences(c, 20, 20, 20, 20, "a.txt", "b.txt");
+              }).find("a.txt: point 2"),
+              std::string::npos);
+    c = ok;
+    c.b[2] = {25, 8};
+    EXPECT_NE(error_of([&] {
+                  check_correspondences(c, 20, 20, 20, 20, "a.txt", "b.txt");
+              }).find("outside"),
+              std::string::npos);
+    c = ok;
+    c.a[2] = c.a[0];
+    EXPECT_NE(error_of([&] {
+                  check_correspondences(c, 20, 20, 20, 20, "a.txt", "b.txt");
+              }).find("same point"),
+              std::string::npos);
+    c = {{{1, 1}, {2, 2}}, {{1, 1}, {2, 2}}};
+    EXPECT_NE(error_of([&] {
+                  check_correspondences(c, 20, 20, 20, 20, "a.txt", "b.txt");
+              }).find("at least 3"),
+              std::string::npos);
+}
+
+TEST(MorphPair, triangle_files) {
+    EXPECT_EQ(parse_triangles("# t\n0 1 2\n\n2 3 0 # x\n", 4, "t.txt").size(), 2u);
+    EXPECT_NE(error_of([] { parse_triangles("0 1\n", 4, "t.txt"); }).find("t.txt:1"),
+              std::string::npos);
+    EXPECT_NE(error_of([] { parse_triangles("0 1 9\n", 4, "t.txt"); }).find("outside"),
+              std::string::npos);
+    EXPECT_THROW(parse_triangles("0 1 1\n", 4, "t.txt"), Error);
+    EXPECT_THROW(parse_triangles("# nothing\n", 4, "t.txt"), Error);
+    // Overlapping or hole-leaving triangles are refused when the pair is built.
+    const Correspondences square{{{0, 0}, {10, 0}, {10, 10}, {0, 10}},
+                                 {{0, 0}, {10, 0}, {10, 10}, {0, 10}}};
+    EXPECT_NO_THROW(triangles_pair(square, {{0, 1, 2}, {0, 2, 3}}, 10, 10, 10, 10));
+    EXPECT_THROW(triangles_pair(square, {{0, 1, 2}}, 10, 10, 10, 10), Error);  // a hole
+    EXPECT_THROW(triangles_pair(square, {{0, 1, 2}, {0, 2, 3}, {1, 2, 3}}, 10, 10, 10, 10),
+                 Error);  // overlap
+}
+
+TEST(MorphPair, triangulated_pair_shares_topology_and_refuses_crossings) {
+    const samples::SamplePair p = samples::deformed_pair(160, 120, 40);
+    const PairMeshes pair = triangulated_pair({p.points_a, p.points_b}, 160, 120, 160, 120);
+    EXPECT_EQ(pair.a.face_corners, pair.b.face_corners);
+    Correspondences crossed{p.points_a, p.points_b};
+    std::swap(crossed.b[3], crossed.b[30]);
+    EXPECT_THROW(triangulated_pair(crossed, 160, 120, 160, 120), Error);
+    // Different image sizes: the border maps to the border.
+    std::vector<Vec2> scaled = p.points_b;
+    for (Vec2& q : scaled) q = 1.5 * q;
+    const PairMeshes big = triangulated_pair({p.points_a, scaled}, 160, 120, 240, 180);
+    EXPECT_EQ(big.b.width, 240);
+    EXPECT_EQ(big.b.vertices.back().x == 0 || big.b.vertices.back().x == 240 ||
+                  big.b.vertices.back().y == 0 || big.b.vertices.back().y == 180,
+              true);
+}
+
+// The procedural pair with a known deformation: the mesh fitted to its points follows the truth,
+// and the middle frame matches the known in-between.
+TEST(MorphPair, known_deformation_is_recovered_and_the_middle_frame_matches) {
+    const int W = 320, H = 240;
+    const samples::SamplePair p = samples::deformed_pair(W, H, 600);
+    const PairMeshes pair = fitted_pair(grid_mesh(W, H, 16, 12), {p.points_a, p.points_b}, W, H);
+    double sq = 0;
+    for (size_t i = 0; i < pair.a.vertices.size(); ++i) {
+        const Vec2 e = pair.b.vertices[i] - p.deformation.at(pair.a.vertices[i], 1.0);
+        sq += dot(e, e);
+    }
+    EXPECT_LT(std::sqrt(sq / pair.a.vertices.size()), 0.5);
+    const Morph m(p.a, p.b, pair.a, pair.b, {.density = 2.0});
+    EXPECT_GT(psnr(samples::moved(p.a, p.deformation, 0.5), m.frame(0.5)).all, 35.0);
+}
+
+// The same with correspondences found automatically (--auto): dense flow and features.
+TEST(MorphPair, automatic_correspondences_recover_the_known_deformation) {
+    const int W = 320, H = 240;
+    const samples::SamplePair p = samples::deformed_pair(W, H, 10);
+    const Matches matches = auto_match(p.a, p.b);
+    const PairMeshes pair = fitted_pair(grid_mesh(W, H, 16, 12), {matches.a, matches.b}, W, H);
+    double sq = 0;
+    for (size_t i = 0; i < pair.a.vertices.size(); ++i) {
+        const Vec2 e = pair.b.vertices[i] - p.deformation.at(pair.a.vertices[i], 1.0);
+        sq += dot(e, e);
+    }
+    EXPECT_LT(std::sqrt(sq / pair.a.vertices.size()), 0.5);
+    const Morph m(p.a, p.b, pair.a, pair.b, {.density = 2.0});
+    EXPECT_GT(psnr(samples::moved(p.a, p.deformation, 0.5), m.frame(0.5)).all, 35.0);
+}
+
+}  // namespace
+}  // namespace tesswave::morph
