@@ -71,5 +71,6 @@ void add_samples_command(CLI::App& app);
 void add_codec_commands(CLI::App& app);
 void add_compare_command(CLI::App& app);
 void add_morph_commands(CLI::App& app);
+void add_eval_interp_command(CLI::App& app);
 
 }  // namespace tesswave::cli

@@ -66,6 +66,8 @@ morph::Correspondences correspondences(const MorphArgs& a, const Image& ia, cons
             throw Error("give --points-a and --points-b, or --auto");
         }
         c = {read_points(a.points_a), read_points(a.points_b)};
+        report["snapped_to_border"] = morph::snap_to_border(c.a, ia.width, ia.height) +
+                                      morph::snap_to_border(c.b, ib.width, ib.height);
     }
     morph::check_correspondences(c, ia.width, ia.height, ib.width, ib.height,
                                  a.automatic ? a.a : a.points_a, a.automatic ? a.b : a.points_b);

@@ -5,10 +5,13 @@
 
 #include "cli.h"
 #include "core/error.h"
+#include "core/file_io.h"
 #include "core/image_io.h"
 #include "core/mesh_io.h"
+#include "core/strings.h"
 #include "samples/sample_images.h"
 #include "samples/sample_meshes.h"
+#include "samples/sample_pair.h"
 
 namespace tesswave::cli {
 
@@ -38,6 +41,18 @@ std::vector<std::string> write_samples(const std::string& dir, int width, int he
     write_image(rgba, out("scene_rgba.png"));
     write_mesh(samples::paper_t0(width, height), out("paper_t0.json"));
     write_mesh(samples::paper_t0_with_features(width, height), out("paper_features.json"));
+    // A morph pair with a known deformation, its point files and the true middle frame.
+    const samples::SamplePair pair = samples::deformed_pair(width, height, 60);
+    write_image(pair.a, out("pair_a.png"));
+    write_image(pair.b, out("pair_b.png"));
+    write_image(samples::moved(pair.a, pair.deformation, 0.5), out("pair_middle_truth.png"));
+    for (const auto& [points, name] :
+         {std::pair{&pair.points_a, "pair_a.txt"}, std::pair{&pair.points_b, "pair_b.txt"}}) {
+        std::string text =
+            "# x y, pixels; line i of pair_a.txt corresponds to line i of pair_b.txt\n";
+        for (const Vec2& p : *points) text += str(p.x, " ", p.y, "\n");
+        write_file_atomic(out(name), text);
+    }
     return written;
 }
 

@@ -67,6 +67,28 @@ Morph::Morph(const Image& a, const Image& b, const Mesh& mesh_a, const Mesh& mes
     const int channels = (a.channels() == 4 && b.channels() == 4) ? 4 : 3;
     samples_a_ = sample_image(with_channels(a, channels), hierarchy_, mesh_a.vertices);
     samples_b_ = sample_image(with_channels(b, channels), hierarchy_, mesh_b.vertices);
+    if (options.residual) {
+        for (int k = 0; k < 2; ++k) {
+            const Image& image = k == 0 ? a : b;
+            const Mesh& mesh = k == 0 ? mesh_a : mesh_b;
+            const auto& samples = k == 0 ? samples_a_ : samples_b_;
+            Image r = with_channels(image, channels);
+            const RenderPlan plan =
+                plan_render(hierarchy_, mesh.vertices, mesh.width, mesh.height, r.width, r.height);
+            std::vector<std::span<const float>> in(samples.begin(), samples.end());
+            const Image back = render(plan, in, SampleFormat::f32);
+            for (int c = 0; c < channels; ++c) {
+                for (size_t i = 0; i < r.planes[c].size(); ++i) r.planes[c][i] -= back.planes[c][i];
+            }
+            auto& position = k == 0 ? position_a_ : position_b_;
+            position.assign(2, {});
+            for (const Vec2& p : refine_positions(hierarchy_, mesh.vertices, J)) {
+                position[0].push_back(static_cast<float>(p.x));
+                position[1].push_back(static_cast<float>(p.y));
+            }
+            (k == 0 ? residual_a_ : residual_b_) = std::move(r);
+        }
+    }
     coeff_a_ = samples_a_;
     coeff_b_ = samples_b_;
     forward_transform(hierarchy_, spans(coeff_a_));
@@ -115,6 +137,38 @@ Planes Morph::blended(double t) const {
     return w;
 }
 
+void Morph::add_residuals(const RenderPlan& plan, double t, Image& out) const {
+    const int J = levels();
+    const Schedule& s = options_.schedule;
+    const float x = static_cast<float>(s.band_weight(J, J + 1, t));
+    // Where each output pixel comes from in A and in B: the mesh map, rendered.
+    std::vector<std::vector<float>> warped[2];
+    for (int k = 0; k < 2; ++k) {
+        const auto& position = k == 0 ? position_a_ : position_b_;
+        std::vector<std::span<const float>> in(position.begin(), position.end());
+        const Image from = render(plan, in, SampleFormat::f32);
+        std::vector<Vec2> p(from.planes[0].size());
+        for (size_t i = 0; i < p.size(); ++i) p[i] = {from.planes[0][i], from.planes[1][i]};
+        warped[k] = sample_bilinear(k == 0 ? residual_a_ : residual_b_, p);
+    }
+    for (int c = 0; c < out.channels(); ++c) {
+        double ea = 0, eb = 0, e = 0;
+        std::vector<float> blend(out.planes[c].size());
+        for (size_t i = 0; i < blend.size(); ++i) {
+            const float ra = warped[0][c][i], rb = warped[1][c][i];
+            blend[i] = (1 - x) * ra + x * rb;
+            ea += double{ra} * ra;
+            eb += double{rb} * rb;
+            e += double{blend[i]} * blend[i];
+        }
+        // sharp: the residual is the finest band, rescaled like the others.
+        const float gain = s.kind == ScheduleKind::sharp && e > 0
+                               ? static_cast<float>(std::sqrt(((1 - x) * ea + x * eb) / e))
+                               : 1.0f;
+        for (size_t i = 0; i < blend.size(); ++i) out.planes[c][i] += gain * blend[i];
+    }
+}
+
 std::vector<double> Morph::detail_energy(double t) const {
     const Planes w = blended(t);
     std::vector<double> e(levels(), 0.0);
@@ -139,7 +193,9 @@ Image Morph::frame(double t, const FrameOptions& options) const {
     inverse_transform(h, spans(w));
     const RenderPlan plan = plan_render(h, v, width_, height_, width_, height_);
     std::vector<std::span<const float>> in(w.begin(), w.end());
-    return render(plan, in, SampleFormat::u8);
+    Image out = render(plan, in, SampleFormat::u8);
+    if (options_.residual && !options.preview) add_residuals(plan, t, out);
+    return out;
 }
 
 }  // namespace tesswave::morph

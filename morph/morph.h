@@ -10,6 +10,7 @@
 #include "core/hierarchy.h"
 #include "core/image.h"
 #include "core/mesh.h"
+#include "core/render.h"
 #include "schedule.h"
 
 namespace tesswave::morph {
@@ -19,6 +20,9 @@ struct MorphOptions {
     double density = 2.0;       // samples per output pixel when J is chosen
     int width = 0, height = 0;  // output size; 0: image A's
     Schedule schedule = {};
+    // Carry the detail the mesh cannot hold (each image minus its own resampling) by a pixel
+    // warp through the same mesh map, blended like the finest band: no resampling loss.
+    bool residual = true;
 };
 
 struct FrameOptions {
@@ -53,13 +57,17 @@ class Morph {
     int height() const { return height_; }
 
   private:
+    void add_residuals(const RenderPlan& plan, double t, Image& out) const;
+
     MorphOptions options_;
     int width_ = 0, height_ = 0;
     Mesh topology_;                  // mesh_a's faces on the output domain
     std::vector<Vec2> va_, vb_;      // T0 vertices of A and B in output pixels
     Hierarchy hierarchy_, preview_;  // levels J and the preview level
     std::vector<std::vector<float>> samples_a_, samples_b_, coeff_a_, coeff_b_;
-    std::vector<std::vector<double>> energy_a_, energy_b_;  // [channel][detail level]
+    std::vector<std::vector<double>> energy_a_, energy_b_;     // [channel][detail level]
+    Image residual_a_, residual_b_;                            // image minus its resampling
+    std::vector<std::vector<float>> position_a_, position_b_;  // T_J sample positions (x, y)
 };
 
 }  // namespace tesswave::morph

@@ -49,7 +49,8 @@ void require_valid_in(const Mesh& m, const char* image) {
     const ValidationReport r = validate(m);
     if (!r.ok()) {
         throw Error(str("the mesh is not valid in image ", image, " (", r.problems.front(),
-                        "): the correspondences cross or fold there"));
+                        "): the correspondences cross or fold there; try --triangles or a "
+                        "fitted --mesh grid"));
     }
 }
 
@@ -63,6 +64,16 @@ void check_correspondences(const Correspondences& c, double wa, double ha, doubl
     }
     check_points(c.a, wa, ha, name_a);
     check_points(c.b, wb, hb, name_b);
+}
+
+int snap_to_border(std::vector<Vec2>& points, double W, double H) {
+    int moved = 0;
+    for (Vec2& p : points) {
+        const Vec2 q{p.x >= W - 1 && p.x < W ? W : p.x, p.y >= H - 1 && p.y < H ? H : p.y};
+        moved += !(q == p);
+        p = q;
+    }
+    return moved;
 }
 
 std::vector<std::array<int32_t, 3>> parse_triangles(const std::string& text, int points,
@@ -111,15 +122,21 @@ PairMeshes triangulated_pair(const Correspondences& c, double wa, double ha, dou
 PairMeshes triangles_pair(const Correspondences& c, const std::vector<std::array<int32_t, 3>>& t,
                           double wa, double ha, double wb, double hb) {
     Mesh topology;
+    int dropped = 0;
     for (const auto& tri : t) {
         // Counterclockwise in A, as every face of a valid mesh.
         const Vec2 p = c.a[tri[0]], q = c.a[tri[1]], r = c.a[tri[2]];
+        if (cross(q - p, r - p) == 0) {
+            ++dropped;
+            continue;
+        }
         const std::array<int32_t, 3> ccw =
             cross(q - p, r - p) >= 0 ? tri : std::array<int32_t, 3>{tri[0], tri[2], tri[1]};
         topology.add_face(ccw);
     }
     PairMeshes pair{with_vertices(topology, c.a, wa, ha), with_vertices(topology, c.b, wb, hb),
-                    str(t.size(), " given triangles")};
+                    str(t.size() - dropped, " given triangles",
+                        dropped ? str(" (", dropped, " of zero area dropped)") : std::string())};
     require_valid_in(pair.a, "A");
     require_valid_in(pair.b, "B");
     return pair;

@@ -22,6 +22,11 @@ void check_correspondences(const Correspondences& c, double width_a, double heig
                            double width_b, double height_b, const std::string& name_a,
                            const std::string& name_b);
 
+// Points within one pixel of the far border (x >= W - 1, y >= H - 1) are moved onto it: landmark
+// tools write border points as the last pixel's index (599 in a 600-pixel image), and the border
+// must map to the border. Returns how many moved.
+int snap_to_border(std::vector<Vec2>& points, double width, double height);
+
 // `i j k` lines (# comments), indices into a list of `points` points. Error names the line.
 std::vector<std::array<int32_t, 3>> parse_triangles(const std::string& text, int points,
                                                     const std::string& name);
@@ -38,7 +43,8 @@ PairMeshes triangulated_pair(const Correspondences& c, double width_a, double he
                              double width_b, double height_b, int border_points = 3);
 
 // The given triangles over the points as they are (they must tile each image: include points on
-// the corners and the border). Error names the rule the mesh breaks in A or in B.
+// the corners and the border). Triangles of zero area in A (three points along the border) are
+// dropped. Error names the rule the mesh breaks in A or in B.
 PairMeshes triangles_pair(const Correspondences& c, const std::vector<std::array<int32_t, 3>>& t,
                           double width_a, double height_a, double width_b, double height_b);
 
