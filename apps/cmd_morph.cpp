@@ -98,7 +98,11 @@ morph::PairMeshes pair_meshes(const MorphArgs& a, const morph::Correspondences& 
     if (!a.triangles.empty()) {
         const auto t = morph::parse_triangles(read_file(a.triangles), static_cast<int>(c.a.size()),
                                               a.triangles);
-        return morph::triangles_pair(c, t, ia.width, ia.height, ib.width, ib.height);
+        try {
+            return morph::triangles_pair(c, t, ia.width, ia.height, ib.width, ib.height);
+        } catch (const Error& e) {
+            throw Error(str(a.triangles, ": ", e.what()));
+        }
     }
     const std::string spec = a.mesh.empty() ? (a.automatic ? "grid" : "triangulation") : a.mesh;
     if (spec == "triangulation") {

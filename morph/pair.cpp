@@ -45,14 +45,19 @@ Mesh with_vertices(const Mesh& topology, std::vector<Vec2> vertices, double W, d
     return m;
 }
 
-void require_valid_in(const Mesh& m, const char* image) {
+void require_valid_in(const Mesh& m, const char* image, const char* hint) {
     const ValidationReport r = validate(m);
     if (!r.ok()) {
-        throw Error(str("the mesh is not valid in image ", image, " (", r.problems.front(),
-                        "): the correspondences cross or fold there; try --triangles or a "
-                        "fitted --mesh grid"));
+        throw Error(
+            str("the mesh is not valid in image ", image, " (", r.problems.front(), "): ", hint));
     }
 }
+
+constexpr const char* kCrossing =
+    "the correspondences cross or fold there; try --triangles or a fitted --mesh grid";
+constexpr const char* kTiling =
+    "the triangles must tile the image without overlaps or holes, over points on its corners "
+    "and border";
 
 }  // namespace
 
@@ -114,8 +119,8 @@ PairMeshes triangulated_pair(const Correspondences& c, double wa, double ha, dou
     }
     PairMeshes pair{ma, with_vertices(ma, std::move(vb), wb, hb),
                     str("triangulation of ", c.a.size(), " points")};
-    require_valid_in(pair.a, "A");
-    require_valid_in(pair.b, "B");
+    require_valid_in(pair.a, "A", kCrossing);
+    require_valid_in(pair.b, "B", kCrossing);
     return pair;
 }
 
@@ -137,8 +142,8 @@ PairMeshes triangles_pair(const Correspondences& c, const std::vector<std::array
     PairMeshes pair{with_vertices(topology, c.a, wa, ha), with_vertices(topology, c.b, wb, hb),
                     str(t.size() - dropped, " given triangles",
                         dropped ? str(" (", dropped, " of zero area dropped)") : std::string())};
-    require_valid_in(pair.a, "A");
-    require_valid_in(pair.b, "B");
+    require_valid_in(pair.a, "A", kTiling);
+    require_valid_in(pair.b, "B", kCrossing);
     return pair;
 }
 
@@ -147,7 +152,7 @@ PairMeshes fitted_pair(const Mesh& mesh_a, const Correspondences& c, double wb, 
     PairMeshes pair{mesh_a, with_vertices(mesh_a, fit.vertices, wb, hb),
                     str("fitted ", mesh_a.num_faces(), "-face mesh, residual rms ", fit.rms,
                         " px, ", fit.outliers, " outliers")};
-    require_valid_in(pair.b, "B");
+    require_valid_in(pair.b, "B", kCrossing);
     return pair;
 }
 

@@ -222,8 +222,9 @@ TEST(MeshFit, never_returns_a_folded_mesh) {
                     pb.push_back({p.x + 60 * std::sin(p.y / 20), p.y + 60 * std::cos(p.x / 25)});
             }
         }
-        expect_valid_or_refused(m, pa, pb, 320, 240,
-                                {.rigidity_weight = 0.05 * (trial % 3), .robust_scale = 20});
+        expect_valid_or_refused(
+            m, pa, pb, 320, 240,
+            {.rigidity_weight = 0.05 * (trial % 3), .robust_scale = 20, .max_iterations = 50});
     }
     EXPECT_EQ(::testing::internal::GetCapturedStderr(), "");
 }
