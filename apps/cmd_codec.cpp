@@ -144,7 +144,7 @@ void add_codec_commands(CLI::App& app) {
         ->check(CLI::Range(1, 12));
     cmd->add_option("--density", c->density, "Mesh samples per pixel when J is chosen")
         ->capture_default_str()
-        ->check(CLI::Range(0.01, 100.0));
+        ->check(CLI::Range(0.01, 16.0));
     cmd->add_flag("-y,--overwrite", c->overwrite, "Overwrite the output");
     cmd->add_flag("--json", c->json, "Print the result as JSON");
     cmd->callback([c] { run_compress(*c); });

@@ -136,9 +136,10 @@ void forward_int53(const Halves& h, int nl, int nh) {
 
 template <typename Halves>
 void inverse_int53(const Halves& h, int nl, int nh) {
-    low_pass_step(h, nl, nh,
-                  [](int32_t v, int32_t a, int32_t b) { return v - ((a + b + 2) >> 2); });
-    high_pass_step(h, nl, nh, [](int32_t v, int32_t a, int32_t b) { return v + ((a + b) >> 1); });
+    // Generic in the sample type: int32 for the codec, int64 for decoding untrusted streams.
+    using T = std::remove_cvref_t<decltype(*h.low)>;
+    low_pass_step(h, nl, nh, [](T v, T a, T b) { return v - ((a + b + 2) >> 2); });
+    high_pass_step(h, nl, nh, [](T v, T a, T b) { return v + ((a + b) >> 1); });
 }
 
 // Each row of the w x h region: split even/odd samples into `buffer`, lift, write back.
@@ -265,6 +266,12 @@ void grid_forward_int53(std::span<int32_t> plane, int width, int height, int lev
 }
 
 void grid_inverse_int53(std::span<int32_t> plane, int width, int height, int levels) {
+    check_plane(plane.size(), width, height, levels, "grid_inverse_int53");
+    inverse_2d(plane, width, height, levels,
+               [](const auto& h, int nl, int nh) { inverse_int53(h, nl, nh); });
+}
+
+void grid_inverse_int53(std::span<int64_t> plane, int width, int height, int levels) {
     check_plane(plane.size(), width, height, levels, "grid_inverse_int53");
     inverse_2d(plane, width, height, levels,
                [](const auto& h, int nl, int nh) { inverse_int53(h, nl, nh); });

@@ -42,6 +42,9 @@ void grid_inverse(std::span<float> plane, int width, int height,
 // level grows the LL range by at most 1.5^2, a high band by at most 4).
 void grid_forward_int53(std::span<int32_t> plane, int width, int height, int levels);
 void grid_inverse_int53(std::span<int32_t> plane, int width, int height, int levels);
+// The same in int64 (identical results where int32 does not overflow): decoders of untrusted
+// streams use it when the coefficients could overflow int32 on the way back.
+void grid_inverse_int53(std::span<int64_t> plane, int width, int height, int levels);
 
 // One band of the Mallat layout. Level 1 is the finest; HL is high-pass along x (top right), LH
 // high-pass along y (bottom left).

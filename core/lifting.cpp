@@ -10,6 +10,7 @@ namespace tesswave {
 namespace {
 
 using detail::IntRule;
+using detail::IntRule64;
 using detail::PatchSides;
 using detail::PatchStep;
 using detail::Step;
@@ -167,6 +168,11 @@ void forward_transform_int(const Hierarchy& h, std::span<const std::span<int32_t
 void inverse_transform_int(const Hierarchy& h, std::span<const std::span<int32_t>> planes,
                            const TransformOptions& options) {
     run<IntRule>(h, planes, options, false);
+}
+
+void inverse_transform_int(const Hierarchy& h, std::span<const std::span<int64_t>> planes,
+                           const TransformOptions& options) {
+    run<IntRule64>(h, planes, options, false);
 }
 
 }  // namespace tesswave

@@ -48,5 +48,9 @@ void forward_transform_int(const Hierarchy& hierarchy, std::span<const std::span
                            const TransformOptions& options = {});
 void inverse_transform_int(const Hierarchy& hierarchy, std::span<const std::span<int32_t>> planes,
                            const TransformOptions& options = {});
+// The integer inverse in int64, identical to the int32 one wherever that does not overflow: for
+// decoding coefficients from untrusted streams.
+void inverse_transform_int(const Hierarchy& hierarchy, std::span<const std::span<int64_t>> planes,
+                           const TransformOptions& options = {});
 
 }  // namespace tesswave

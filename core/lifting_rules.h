@@ -29,6 +29,17 @@ struct IntRule {
     }
 };
 
+// The same rule on int64 samples, for inverting untrusted coefficients without int32 overflow.
+struct IntRule64 {
+    using T = int64_t;
+    using Acc = int64_t;
+    static int64_t apply(int64_t num, int64_t den) {
+        const int64_t n = num + den / 2;
+        const int64_t q = n / den;
+        return (n % den != 0 && n < 0) ? q - 1 : q;
+    }
+};
+
 // Increments of the three steps for one point of step `t` (T_{j+1} -> T_j) on one plane. Each
 // reads only points its step leaves unchanged, so forward adds and inverse subtracts the very
 // same value. Sums run in the order of the tables (face corners and edges in cyclic order, vertex

@@ -86,12 +86,21 @@ TwiHeader make_header(const Image& image, const StillOptions& o) {
     if (o.lossless && o.transform == TwiTransform::grid97) {
         throw Error("lossless coding needs the reversible 5/3 (--grid 53) or the mesh");
     }
+    // What the decoder's default limits accept, and nothing more.
+    const TwiLimits limits;
+    const int64_t pixels = int64_t{image.width} * image.height;
+    if (pixels > limits.max_pixels) {
+        throw Error(str(image.width, "x", image.height, " pixels exceed the .twi limit of ",
+                        limits.max_pixels));
+    }
     if (o.transform == TwiTransform::mesh) {
         choose_mesh(image, o, h);
         const int64_t samples = sample_count(h.mesh, h.levels);
-        if (samples > TwiLimits{}.max_samples) {
+        if (samples > limits.max_samples ||
+            samples > limits.max_samples_per_pixel * static_cast<double>(pixels) + (1 << 20)) {
             throw Error(str("level ", h.levels, " has ", samples, " samples (limit ",
-                            TwiLimits{}.max_samples, "); lower --levels or --density"));
+                            limits.max_samples, ", and ", limits.max_samples_per_pixel,
+                            " a pixel); lower --levels or --density"));
         }
     } else {
         h.levels = o.levels > 0 ? std::min(o.levels, 20) : 5;

@@ -1,6 +1,7 @@
 #include "still_domain.h"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 
 #include "colour.h"
@@ -135,11 +136,40 @@ std::vector<std::vector<int32_t>> StillDomain::analyze_int(const Image& image) c
 
 std::vector<std::vector<int32_t>> StillDomain::inverse_int(
     std::vector<std::vector<int32_t>> x) const {
-    if (hierarchy_) {
-        inverse_transform_int(*hierarchy_, spans(x));
+    // The integer inverse grows values by less than 16x a level (at most 6.25x for the grid 5/3,
+    // 10.75x for the mesh), so int32 is safe while largest * 16^levels < 2^30. Coefficients from
+    // a damaged stream can exceed that: they take the int64 inverse, or are refused past 2^62.
+    uint32_t largest = 0;
+    for (const auto& plane : x) {
+        for (int32_t v : plane)
+            largest = std::max(largest, static_cast<uint32_t>(v < 0 ? -int64_t{v} : v));
+    }
+    const int levels = hierarchy_ ? hierarchy_->finest() : header_.levels;
+    const int bits = std::bit_width(largest) + 4 * levels;
+    if (bits <= 30) {
+        if (hierarchy_) {
+            inverse_transform_int(*hierarchy_, spans(x));
+        } else {
+            for (auto& plane : x)
+                grid_inverse_int53(plane, header_.width, header_.height, header_.levels);
+        }
+    } else if (bits <= 62) {
+        std::vector<std::vector<int64_t>> wide(x.size());
+        for (size_t c = 0; c < x.size(); ++c) wide[c].assign(x[c].begin(), x[c].end());
+        if (hierarchy_) {
+            inverse_transform_int(*hierarchy_, spans(wide));
+        } else {
+            for (auto& plane : wide)
+                grid_inverse_int53(plane, header_.width, header_.height, header_.levels);
+        }
+        constexpr int64_t kLimit = int64_t{1} << 30;  // no sample of a valid file comes near it
+        for (size_t c = 0; c < x.size(); ++c) {
+            for (size_t i = 0; i < x[c].size(); ++i) {
+                x[c][i] = static_cast<int32_t>(std::clamp(wide[c][i], -kLimit, kLimit));
+            }
+        }
     } else {
-        for (auto& plane : x)
-            grid_inverse_int53(plane, header_.width, header_.height, header_.levels);
+        throw Error("lossless coefficients out of range (a corrupted stream)");
     }
     if (header_.colour == TwiColour::ycocg_r) ycocg_r_inverse(x[0], x[1], x[2]);
     return x;

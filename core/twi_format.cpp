@@ -1,6 +1,7 @@
 #include "twi_format.h"
 
 #include <cmath>
+#include <limits>
 
 #include "byte_io.h"
 #include "error.h"
@@ -16,6 +17,7 @@ namespace {
 constexpr uint8_t kMagic[4] = {'T', 'W', 'I', 0x1A};
 constexpr uint32_t kVersion = 1;
 constexpr double kVertexUnit = 256.0;
+constexpr int64_t kMaxCoordinate = int64_t{1} << 40;  // in vertex units, either sign
 
 void write_mesh(ByteWriter& w, const TwiHeader& h) {
     w.u8(static_cast<uint8_t>(h.placement));
@@ -52,6 +54,26 @@ void write_mesh(ByteWriter& w, const TwiHeader& h) {
     }
 }
 
+// Adds a delta to a running value in [-bound, bound]; false when the sum leaves that range. The
+// delta is checked first, so that the sum cannot overflow whatever the file says.
+bool add_delta(int64_t& value, int64_t delta, int64_t bound) {
+    if (delta < -2 * bound || delta > 2 * bound) return false;
+    value += delta;
+    return value >= -bound && value <= bound;
+}
+
+// A count in [lo, hi] of items that take at least `bytes_each` bytes each: more than the bytes
+// that remain can hold means a cut file, and the message says so.
+int64_t fitting_count(ByteReader& r, const char* field, int64_t lo, int64_t hi,
+                      int64_t bytes_each) {
+    const int64_t n = r.count(field, lo, hi);
+    if (n > static_cast<int64_t>(r.remaining()) / bytes_each) {
+        r.fail(str("truncated: ", field, " ", n, " needs at least ", bytes_each,
+                   " bytes per item, ", r.remaining(), " remain"));
+    }
+    return n;
+}
+
 void read_mesh(ByteReader& r, TwiHeader& h, const TwiLimits& limits, const std::string& name) {
     h.placement = static_cast<MeshPlacement>(r.count("mesh placement", 0, 1));
     const double W = h.width, H = h.height;
@@ -79,33 +101,34 @@ void read_mesh(ByteReader& r, TwiHeader& h, const TwiLimits& limits, const std::
         m.width = W;
         m.height = H;
         // Each vertex takes at least 2 bytes, each face at least 4 (count and 3 corners).
-        const int64_t nv = r.count("vertex count", 3,
-                                   std::min<int64_t>(limits.max_mesh_vertices, r.remaining() / 2));
+        const int64_t nv = fitting_count(r, "vertex count", 3, limits.max_mesh_vertices, 2);
         m.vertices.resize(nv);
         int64_t x = 0, y = 0;
         for (Vec2& p : m.vertices) {
-            x += r.svarint("vertex x");
-            y += r.svarint("vertex y");
-            if (std::abs(x) > (int64_t{1} << 40) || std::abs(y) > (int64_t{1} << 40)) {
+            if (!add_delta(x, r.svarint("vertex x"), kMaxCoordinate) ||
+                !add_delta(y, r.svarint("vertex y"), kMaxCoordinate)) {
                 r.fail("vertex coordinate out of range");
             }
             p = {x / kVertexUnit, y / kVertexUnit};
         }
-        const int64_t nf = r.count("face count", 1, r.remaining() / 4);
+        constexpr int64_t kMaxCount = std::numeric_limits<int32_t>::max();
+        const int64_t nf = fitting_count(r, "face count", 1, kMaxCount, 4);
         int64_t prev = 0;
         std::vector<int32_t> corners;
         for (int64_t f = 0; f < nf; ++f) {
-            const int64_t k = r.count("face corner count", 3, std::min<int64_t>(nv, r.remaining()));
+            const int64_t k = fitting_count(r, "face corner count", 3, nv, 1);
             corners.resize(k);
             for (int32_t& c : corners) {
-                prev += r.svarint("face corner");
-                if (prev < 0 || prev >= nv)
-                    r.fail(str("face ", f, ": corner id ", prev, " out of range"));
+                const int64_t delta = r.svarint("face corner");
+                if (delta <= -nv || delta >= nv || prev + delta < 0 || prev + delta >= nv) {
+                    r.fail(str("face ", f, ": corner id ", prev, " + ", delta, " out of range"));
+                }
+                prev += delta;
                 c = static_cast<int32_t>(prev);
             }
             m.add_face(corners);
         }
-        const int64_t ne = r.count("feature count", 0, r.remaining() / 2);
+        const int64_t ne = fitting_count(r, "feature count", 0, kMaxCount, 2);
         m.features.resize(ne);
         for (auto& e : m.features) {
             e[0] = static_cast<int32_t>(r.count("feature vertex", 0, nv - 1));
@@ -116,9 +139,11 @@ void read_mesh(ByteReader& r, TwiHeader& h, const TwiLimits& limits, const std::
         r.fail(str("unknown mesh kind ", kind));
     }
     const int64_t samples = sample_count(h.mesh, h.levels);
-    if (samples > limits.max_samples) {
+    const double per_pixel_cap =
+        limits.max_samples_per_pixel * (static_cast<double>(h.width) * h.height) + (1 << 20);
+    if (samples > limits.max_samples || static_cast<double>(samples) > per_pixel_cap) {
         r.fail(str("the mesh has ", samples, " samples at level ", h.levels, " (limit ",
-                   limits.max_samples, ")"));
+                   limits.max_samples, ", and ", limits.max_samples_per_pixel, " a pixel)"));
     }
 }
 

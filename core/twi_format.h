@@ -50,9 +50,13 @@ struct TwiHeader {
     float step(int channel, int band) const;
 };
 
+// Decoding takes about 100 bytes a pixel (grid) or a mesh sample, so the defaults bound a
+// header's claims to a few GB: 2^26 pixels (e.g. 8192 x 8192), and mesh samples at most 50 M and
+// at most 20 a pixel (plus 2^20 for tiny images; the encoder offers up to 16).
 struct TwiLimits {
-    int64_t max_pixels = int64_t{1} << 28;
+    int64_t max_pixels = int64_t{1} << 26;
     int64_t max_samples = 50'000'000;  // mesh samples of T_J
+    double max_samples_per_pixel = 20;
     int max_mesh_vertices = 1'000'000;
 };
 

@@ -92,6 +92,21 @@ TEST(FixedGrid, int53_reconstructs_bit_exactly) {
     }
 }
 
+TEST(FixedGrid, int53_inverse_in_int64_matches_int32) {
+    uint32_t seed = 300;
+    for (const Size size : kSizes) {
+        std::vector<int32_t> narrow = random_int_plane(size.width, size.height, seed++);
+        grid_forward_int53(narrow, size.width, size.height, 4);
+        // Arbitrary coefficients too, not only those of a forward transform.
+        for (size_t i = 0; i < narrow.size(); i += 3)
+            narrow[i] = static_cast<int32_t>(i % 1000) - 500;
+        std::vector<int64_t> wide(narrow.begin(), narrow.end());
+        grid_inverse_int53(narrow, size.width, size.height, 4);
+        grid_inverse_int53(wide, size.width, size.height, 4);
+        EXPECT_EQ(std::vector<int64_t>(narrow.begin(), narrow.end()), wide) << describe(size, 4);
+    }
+}
+
 // Whole-sample symmetric extension, for the direct formulas below.
 int mirror(int i, int n) {
     while (i < 0 || i >= n) i = i < 0 ? -i : 2 * (n - 1) - i;

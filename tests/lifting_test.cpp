@@ -106,6 +106,22 @@ TEST(Lifting, integer_variant_is_bit_exact) {
     }
 }
 
+TEST(Lifting, integer_inverse_in_int64_matches_int32) {
+    for (auto& [name, mesh] : test_meshes()) {
+        SCOPED_TRACE(name);
+        const Hierarchy h = build_hierarchy(mesh, {.levels = 4});
+        std::mt19937_64 rng(5);
+        std::vector<int32_t> a(h.num_samples(4));
+        for (int32_t& v : a) v = static_cast<int32_t>(rng() % 4096) - 2048;  // any coefficients
+        std::vector<int64_t> wide(a.begin(), a.end());
+        std::span<int32_t> narrow[] = {a};
+        std::span<int64_t> planes64[] = {wide};
+        inverse_transform_int(h, narrow);
+        inverse_transform_int(h, planes64);
+        EXPECT_EQ(std::vector<int64_t>(a.begin(), a.end()), wide);
+    }
+}
+
 // Component of each finest-level sample when the cut mesh falls apart along features: flood fill
 // the T0 faces, then follow each face to its children (face k's children are its corner quads).
 std::vector<int> sample_components(const Hierarchy& h) {
