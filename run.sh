@@ -55,7 +55,17 @@ fuzz)  # ./run.sh fuzz [seconds per target]: libFuzzer runs from the sample mesh
     CXX=clang++ build build-fuzz -DTESSWAVE_BUILD_FUZZERS=ON -DTESSWAVE_BUILD_TESTS=OFF
     mkdir -p build-fuzz/corpus
     ./build-fuzz/apps/tesswave samples -y -o build-fuzz/corpus >/dev/null
-    for t in mesh_fuzz points_fuzz; do
+    # .twi seeds: a 40x30 image in every mode, 300 to 2000 bytes, so that each run decodes quickly.
+    small=build-fuzz/twi-samples
+    ./build-fuzz/apps/tesswave samples -y --size 40x30 -o $small >/dev/null
+    i=0
+    for mode in "--bpp 4" "--bpp 4 --aligned" "--bpp 4 --mesh $small/paper_t0.json" \
+        "--bpp 4 --grid 53" "--bpp 2 --grid 97" "--lossless" "--lossless --grid 53"; do
+        # $mode unquoted: it is several options.
+        ./build-fuzz/apps/tesswave compress $small/scene.png $mode -y \
+            -o build-fuzz/corpus/seed$((i++)).twi >/dev/null
+    done
+    for t in mesh_fuzz points_fuzz twi_fuzz; do
         ./build-fuzz/tests/$t -max_total_time="${2:-60}" -print_final_stats=1 build-fuzz/corpus
     done
     ;;
