@@ -19,26 +19,19 @@ struct RealRule {
 
 // Integer increments num / den rounded half up, floor((num + floor(den/2)) / den), with the
 // floor division written out for negative numerators. Sums are int64, so no stencil overflows.
-struct IntRule {
-    using T = int32_t;
+// Samples are int32 (the codec) or int64 (inverting untrusted coefficients without overflow).
+template <class I>
+struct IntRuleOf {
+    using T = I;
     using Acc = int64_t;
-    static int32_t apply(int64_t num, int64_t den) {
+    static I apply(int64_t num, int64_t den) {
         const int64_t n = num + den / 2;
         const int64_t q = n / den;
-        return static_cast<int32_t>((n % den != 0 && n < 0) ? q - 1 : q);
+        return static_cast<I>((n % den != 0 && n < 0) ? q - 1 : q);
     }
 };
-
-// The same rule on int64 samples, for inverting untrusted coefficients without int32 overflow.
-struct IntRule64 {
-    using T = int64_t;
-    using Acc = int64_t;
-    static int64_t apply(int64_t num, int64_t den) {
-        const int64_t n = num + den / 2;
-        const int64_t q = n / den;
-        return (n % den != 0 && n < 0) ? q - 1 : q;
-    }
-};
+using IntRule = IntRuleOf<int32_t>;
+using IntRule64 = IntRuleOf<int64_t>;
 
 // Increments of the three steps for one point of step `t` (T_{j+1} -> T_j) on one plane. Each
 // reads only points its step leaves unchanged, so forward adds and inverse subtracts the very
