@@ -101,7 +101,7 @@ struct EvalArgs {
     std::vector<std::string> dirs;
     std::string output;
     bool overwrite = false, json = false;
-    double density = 3.5, cell = 16;
+    double density = 3.5, cell = 10;
 };
 
 void run_eval(const EvalArgs& a) {
