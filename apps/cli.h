@@ -2,6 +2,7 @@
 #pragma once
 
 #include <CLI/CLI.hpp>
+#include <chrono>
 #include <string>
 #include <vector>
 
@@ -20,6 +21,11 @@ void check_folder(const std::string& dir, bool overwrite);
 // An output folder: created if missing; an existing non-empty one needs -y (its files are then
 // overwritten one by one, each atomically). Refuses a path that is a file.
 void prepare_folder(const std::string& dir, bool overwrite);
+
+// Seconds since t on the steady clock (whole-command and per-stage timings in reports).
+inline double seconds_since(std::chrono::steady_clock::time_point t) {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+}
 
 // A one-line progress bar on stderr, drawn only when stderr is a terminal.
 class ProgressBar {

@@ -53,8 +53,7 @@ void run_compress(const CompressArgs& a) {
     }
     write_file_atomic(
         a.output, std::string_view(reinterpret_cast<const char*>(r.file.data()), r.file.size()));
-    const double seconds =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    const double seconds = seconds_since(start);
     const double bpp = r.file.size() * 8.0 / pixels;
     nlohmann::json j = {{"input", a.input},
                         {"output", a.output},

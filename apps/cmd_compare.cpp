@@ -42,10 +42,6 @@ struct Row {
 
 const char* const kMethods[] = {"mesh", "mesh aligned", "grid 5/3", "grid 9/7", "JPEG 2000"};
 
-double seconds_since(std::chrono::steady_clock::time_point t) {
-    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
-}
-
 std::vector<double> parse_rates(const std::string& text) {
     std::vector<double> rates;
     std::stringstream in(text);

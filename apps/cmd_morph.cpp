@@ -187,8 +187,7 @@ void run_morph(const MorphArgs& a) {
         report["frames"] = a.frames;
     }
     bar.update(1.0, "done");
-    report["seconds"] =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    report["seconds"] = seconds_since(start);
     if (a.json) {
         std::printf("%s\n", report.dump(2).c_str());
     } else {
