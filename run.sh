@@ -65,7 +65,13 @@ fuzz)  # ./run.sh fuzz [seconds per target]: libFuzzer runs from the sample mesh
         ./build-fuzz/apps/tesswave compress $small/scene.png $mode -y \
             -o build-fuzz/corpus/seed$((i++)).twi >/dev/null
     done
-    for t in mesh_fuzz points_fuzz twi_fuzz; do
+    # .twv seeds: 6 frames of the 176x144 sample clip in each mode, about 2 kB each.
+    for mode in "" "--motion none" "--grid 53" "--grid 97 --quality 30"; do
+        # $mode unquoted: it is several options.
+        ./build-fuzz/apps/tesswave encode $small/clip.mkv --frames 6 -g 3 --kbps 60 $mode -y \
+            -o build-fuzz/corpus/seed$((i++)).twv >/dev/null
+    done
+    for t in mesh_fuzz points_fuzz twi_fuzz twv_fuzz; do
         ./build-fuzz/tests/$t -max_total_time="${2:-60}" -print_final_stats=1 build-fuzz/corpus
     done
     ;;

@@ -69,6 +69,10 @@ void print_analysis_table(const AnalysisResult& result);
 // The sample images and meshes, written into dir; returns the paths.
 std::vector<std::string> write_samples(const std::string& dir, int width, int height);
 
+// The video job of the demo: the clip coded with the moving mesh, the static mesh and the
+// fixed-grid 5/3 at one rate, a table printed, the moving-mesh file decoded; returns the outputs.
+std::vector<std::string> video_demo(const std::string& clip, const std::string& dir);
+
 // Registers each subcommand on the app.
 void add_mesh_commands(CLI::App& app);
 void add_demo_command(CLI::App& app);
@@ -78,5 +82,7 @@ void add_codec_commands(CLI::App& app);
 void add_compare_command(CLI::App& app);
 void add_morph_commands(CLI::App& app);
 void add_eval_interp_command(CLI::App& app);
+void add_video_commands(CLI::App& app);
+void add_info_command(CLI::App& app);
 
 }  // namespace tesswave::cli

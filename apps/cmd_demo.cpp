@@ -264,6 +264,9 @@ void run_demo(const fs::path& dir, bool overwrite) {
 
     codec_demo(scene, demo);
     morph_demo(demo);
+    for (const auto& f : video_demo((dir / "samples" / "clip.mkv").string(), dir.string())) {
+        demo.written.push_back(f);
+    }
 
     std::printf("\noutputs:\n");
     for (const auto& f : demo.written) std::printf("  %s\n", f.c_str());

@@ -9,6 +9,8 @@
 #include "core/image_io.h"
 #include "core/mesh_io.h"
 #include "core/strings.h"
+#include "core/video_io.h"
+#include "samples/sample_clip.h"
 #include "samples/sample_images.h"
 #include "samples/sample_meshes.h"
 #include "samples/sample_pair.h"
@@ -53,6 +55,14 @@ std::vector<std::string> write_samples(const std::string& dir, int width, int he
         for (const Vec2& p : *points) text += str(p.x, " ", p.y, "\n");
         write_file_atomic(out(name), text);
     }
+    // A clip with known motion: a pan and a slow zoom over a procedural scene, plus a moving
+    // disk; lossless FFV1, so that codecs see exactly the generated frames.
+    const samples::SampleClipOptions clip{
+        .width = 176, .height = 144, .frames = 48, .pan = {1.25, 0.5}, .zoom = 0.002};
+    VideoWriter writer(out("clip.mkv"), clip.width, clip.height,
+                       {.fps = clip.fps, .codec = VideoCodec::ffv1});
+    for (int t = 0; t < clip.frames; ++t) writer.write(samples::sample_clip_frame(clip, t));
+    writer.finish();
     return written;
 }
 
@@ -63,8 +73,9 @@ void add_samples_command(CLI::App& app) {
         bool overwrite = false;
     };
     auto args = std::make_shared<Args>();
-    auto* cmd = app.add_subcommand(
-        "samples", "Write the procedural sample images (RGB, grey, 16-bit, RGBA) and meshes");
+    auto* cmd = app.add_subcommand("samples",
+                                   "Write the procedural sample images (RGB, grey, 16-bit, RGBA), "
+                                   "meshes, morph pair and clip");
     cmd->add_option("-o,--output", args->dir, "Output folder")->required();
     cmd->add_option("--size", args->size, "Image size WxH (the paper's is 249x251)")
         ->capture_default_str();

@@ -40,6 +40,8 @@ int main(int argc, char** argv) {
     tesswave::cli::add_compare_command(app);
     tesswave::cli::add_morph_commands(app);
     tesswave::cli::add_eval_interp_command(app);
+    tesswave::cli::add_video_commands(app);
+    tesswave::cli::add_info_command(app);
     tesswave::cli::add_samples_command(app);
     tesswave::cli::add_demo_command(app);
     try {

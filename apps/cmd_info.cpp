@@ -1,0 +1,139 @@
+// tesswave info: what a .twi image or a .twv clip holds.
+#include <cstdio>
+#include <fstream>
+#include <map>
+#include <memory>
+#include <nlohmann/json.hpp>
+
+#include "cli.h"
+#include "core/error.h"
+#include "core/file_io.h"
+#include "core/strings.h"
+#include "core/twi_format.h"
+#include "video/dec_video.h"
+
+namespace tesswave::cli {
+namespace {
+
+const char* transform_name(TwiTransform t) {
+    return t == TwiTransform::mesh ? "mesh" : t == TwiTransform::grid53 ? "grid 5/3" : "grid 9/7";
+}
+
+nlohmann::json twi_info(const std::string& path) {
+    const std::string bytes = read_file(path);
+    const std::span<const uint8_t> file(reinterpret_cast<const uint8_t*>(bytes.data()),
+                                        bytes.size());
+    const TwiHeader h = read_twi_header(file, path);
+    nlohmann::json j = {{"file", path},
+                        {"format", "twi"},
+                        {"bytes", bytes.size()},
+                        {"header_bytes", h.header_bytes},
+                        {"width", h.width},
+                        {"height", h.height},
+                        {"channels", h.channels},
+                        {"bit_depth", h.bit_depth},
+                        {"transform", transform_name(h.transform)},
+                        {"lossless", h.lossless},
+                        {"levels", h.levels},
+                        {"bands", h.band_norms.size()},
+                        {"bpp", bytes.size() * 8.0 / (double(h.width) * h.height)}};
+    if (h.transform == TwiTransform::mesh) {
+        j["mesh"] = h.grid_cols > 0
+                        ? str("grid ", h.grid_cols, "x", h.grid_rows)
+                        : str(h.mesh.num_vertices(), " vertices, ", h.mesh.num_faces(), " faces");
+        j["placement"] = h.placement == MeshPlacement::centres ? "pixel centres" : "area";
+    }
+    return j;
+}
+
+nlohmann::json twv_info(const std::string& path) {
+    video::VideoDecoder decoder(path);
+    const video::TwvHeader& h = decoder.header();
+    int64_t frames = 0, intra_bytes = 0, delta_bytes = 0, motion_bytes = 0, intra = 0;
+    std::map<std::string, int> domains;
+    Image unused;
+    while (decoder.read(unused, false)) {
+        const video::TwvFrameInfo& f = decoder.info();
+        ++frames;
+        motion_bytes += f.motion_bytes;
+        if (f.kind == video::TwvFrameKind::intra) {
+            ++intra;
+            intra_bytes += f.bytes;
+            const video::TwvGroup& g = decoder.group();
+            std::string d = str(transform_name(g.transform), ", ", g.levels, " levels");
+            if (g.transform == TwiTransform::mesh) {
+                d += str(", grid ", g.grid_cols, "x", g.grid_rows, ", ",
+                         g.motion == video::TwvMotion::tracked ? "tracked" : "static");
+            }
+            ++domains[d];
+        } else {
+            delta_bytes += f.bytes;
+        }
+    }
+    const double seconds = frames / h.fps();
+    nlohmann::json j = {
+        {"file", path},
+        {"format", "twv"},
+        {"bytes", decoder.file_bytes()},
+        {"width", h.width},
+        {"height", h.height},
+        {"fps", h.fps()},
+        {"frames", frames},
+        {"groups", intra},
+        {"indexed", decoder.frame_count().has_value()},
+        {"intra_bytes", intra_bytes},
+        {"delta_bytes", delta_bytes},
+        {"motion_bytes", motion_bytes},
+        {"kbps", seconds > 0 ? decoder.file_bytes() * 8.0 / 1000 / seconds : 0},
+        {"bpp",
+         frames > 0 ? decoder.file_bytes() * 8.0 / (double(frames) * h.width * h.height) : 0},
+        {"damage", decoder.damage()}};
+    nlohmann::json d = nlohmann::json::array();
+    for (const auto& [name, count] : domains) d.push_back({{"domain", name}, {"groups", count}});
+    j["domains"] = d;
+    return j;
+}
+
+void run_info(const std::string& path, bool json) {
+    char magic[4] = {};
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throw Error(str(path, ": cannot open"));
+    in.read(magic, 4);
+    nlohmann::json j;
+    if (in && std::string(magic, 3) == "TWV") {
+        j = twv_info(path);
+    } else if (in && std::string(magic, 3) == "TWI") {
+        j = twi_info(path);
+    } else {
+        throw Error(str(path, ": neither a .twi nor a .twv file"));
+    }
+    if (json) {
+        std::printf("%s\n", j.dump(2).c_str());
+        return;
+    }
+    for (const auto& [key, value] : j.items()) {
+        if (key == "domains") {
+            for (const auto& d : value) {
+                std::printf("%-14s %s (%d groups)\n", "domain",
+                            d["domain"].get<std::string>().c_str(), d["groups"].get<int>());
+            }
+        } else if (key != "damage" || !value.get<std::string>().empty()) {
+            std::printf(
+                "%-14s %s\n", key.c_str(),
+                value.is_string() ? value.get<std::string>().c_str() : value.dump().c_str());
+        }
+    }
+}
+
+}  // namespace
+
+void add_info_command(CLI::App& app) {
+    auto path = std::make_shared<std::string>();
+    auto json = std::make_shared<bool>(false);
+    auto* cmd = app.add_subcommand("info", "Describe a .twi image or a .twv clip");
+    cmd->add_option("file", *path, "A .twi or .twv file")->required();
+    cmd->add_flag("--json", *json, "Print as JSON");
+    cmd->callback([path, json] { run_info(*path, *json); });
+}
+
+}  // namespace tesswave::cli

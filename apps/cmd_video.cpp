@@ -1,0 +1,347 @@
+// tesswave encode / decode: clips as .twv, coefficient deltas on a mesh that follows the content.
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <nlohmann/json.hpp>
+
+#include "cli.h"
+#include "core/error.h"
+#include "core/frame_source.h"
+#include "core/image_io.h"
+#include "core/mesh_draw.h"
+#include "core/strings.h"
+#include "frame_sink.h"
+#include "video/dec_video.h"
+#include "video/enc_video.h"
+
+namespace tesswave::cli {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct EncodeArgs {
+    std::string input, output, grid, motion = "tracked", size, pixel_format = "yuv420p", debug_dir;
+    double kbps = 0, quality = 0, density = 2.0, intra_weight = 4, fps = 0;
+    int levels = 0, group = 32, motion_level = 0;
+    int64_t max_frames = 0;
+    bool overwrite = false, json = false;
+};
+
+// The mesh over the frame, and each track as a dot with a line to where it came from.
+void write_debug_frame(const std::string& dir, int64_t number, const Image& frame,
+                       const video::VideoEncoder& encoder) {
+    char name[40];
+    std::snprintf(name, sizeof name, "frame_%05lld.png", static_cast<long long>(number));
+    const double scale = std::max(1.0, std::round(640.0 / std::max(frame.width, frame.height)));
+    Image picture;
+    if (const Mesh* rest = encoder.mesh()) {
+        Mesh m = *rest;
+        m.vertices.assign(encoder.vertices().begin(), encoder.vertices().end());
+        picture = draw_mesh(m, {.levels = 0, .scale = scale, .line_width = 1.0}, &frame);
+    } else {
+        picture = frame;
+    }
+    if (const auto* tracks = encoder.tracks()) {
+        const double s = static_cast<double>(picture.width) / frame.width;
+        auto dot = [&](Vec2 p, float r, float g, float b) {
+            const int cx = static_cast<int>(p.x * s), cy = static_cast<int>(p.y * s);
+            for (int y = cy - 1; y <= cy + 1; ++y) {
+                for (int x = cx - 1; x <= cx + 1; ++x) {
+                    if (x < 0 || y < 0 || x >= picture.width || y >= picture.height) continue;
+                    picture.at(0, x, y) = r;
+                    picture.at(1, x, y) = g;
+                    picture.at(2, x, y) = b;
+                }
+            }
+        };
+        for (const video::Track& t : *tracks) {
+            if (!t.born) {
+                for (int i = 1; i < 8; ++i) {  // the last step, drawn 4x longer so it shows
+                    const double f = 4.0 * i / 8;
+                    dot(t.position + f * (t.previous - t.position), 1.0f, 0.85f, 0.0f);
+                }
+            }
+            dot(t.position, t.born ? 0.2f : 0.1f, t.born ? 0.6f : 1.0f, t.born ? 1.0f : 0.1f);
+        }
+    }
+    write_image(picture, (fs::path(dir) / name).string());
+}
+
+void run_encode(const EncodeArgs& a) {
+    check_output(a.output, a.overwrite, {a.input});
+    if (!a.debug_dir.empty()) check_folder(a.debug_dir, a.overwrite);
+    if (a.motion != "tracked" && a.motion != "none") {
+        throw Error(str("--motion: expected tracked or none, got \"", a.motion, "\""));
+    }
+    const auto start = std::chrono::steady_clock::now();
+    FrameSourceOptions so{.fps = a.fps, .pixel_format = a.pixel_format};
+    if (!a.size.empty()) std::tie(so.width, so.height) = parse_cells(a.size, "--size");
+    FrameSource source(a.input, so);
+    video::VideoEncodeOptions o{
+        .transform = a.grid.empty()   ? TwiTransform::mesh
+                     : a.grid == "97" ? TwiTransform::grid97
+                                      : TwiTransform::grid53,
+        .motion = a.motion == "none" ? video::TwvMotion::none : video::TwvMotion::tracked,
+        .motion_level = a.motion_level,
+        .density = a.density,
+        .levels = a.levels,
+        .group = a.group,
+        .kbps = a.kbps,
+        .quality = a.kbps > 0 || a.quality > 0 ? a.quality : 36,
+        .intra_weight = a.intra_weight};
+    std::unique_ptr<video::VideoEncoder> encoder;
+    try {
+        encoder = std::make_unique<video::VideoEncoder>(a.output, source.width(), source.height(),
+                                                        source.fps() > 0 ? source.fps() : 25, o);
+    } catch (const Error& e) {
+        throw Error(str(a.input, ": ", e.what()));
+    }
+    if (!a.debug_dir.empty()) prepare_folder(a.debug_dir, a.overwrite);
+    const int64_t total = a.max_frames > 0 ? a.max_frames : source.frame_count_estimate();
+    ProgressBar bar;
+    nlohmann::json frames = nlohmann::json::array();
+    Image frame;
+    double psnr_sum = 0;
+    int64_t n = 0, groups = 0;
+    while ((a.max_frames <= 0 || n < a.max_frames) && source.read(frame)) {
+        video::EncodedFrame f;
+        try {
+            f = encoder->encode(frame);
+        } catch (const Error& e) {
+            throw Error(str(a.input, ": frame ", n, ": ", e.what()));
+        }
+        if (!a.debug_dir.empty()) write_debug_frame(a.debug_dir, n, frame, *encoder);
+        psnr_sum += f.psnr;
+        groups += f.kind == video::TwvFrameKind::intra;
+        frames.push_back({{"frame", f.number},
+                          {"kind", f.kind == video::TwvFrameKind::intra ? "intra" : "delta"},
+                          {"bytes", f.bytes},
+                          {"motion_bytes", f.motion_bytes},
+                          {"psnr", f.psnr},
+                          {"tracks", f.tracks},
+                          {"fit_rms", f.fit_rms},
+                          {"new_group", f.new_group}});
+        ++n;
+        if (total > 0) bar.update(static_cast<double>(n) / total, str("frame ", n).c_str());
+    }
+    const int64_t bytes = encoder->finish();
+    const double seconds = seconds_since(start);
+    const double fps = encoder->header().fps();
+    const double kbps = bytes * 8.0 / 1000 / (n / fps);
+    const double bpp = bytes * 8.0 / (static_cast<double>(n) * source.width() * source.height());
+    nlohmann::json j = {{"input", a.input},
+                        {"output", a.output},
+                        {"width", source.width()},
+                        {"height", source.height()},
+                        {"frames", n},
+                        {"groups", groups},
+                        {"bytes", bytes},
+                        {"kbps", kbps},
+                        {"bpp", bpp},
+                        {"psnr", psnr_sum / n},
+                        {"seconds", seconds},
+                        {"fps", n / seconds}};
+    if (a.json) {
+        j["per_frame"] = frames;
+        std::printf("%s\n", j.dump(2).c_str());
+        return;
+    }
+    std::printf(
+        "%s: %lld frames %dx%d in %lld groups, %lld bytes, %.1f kbit/s at %.3g fps "
+        "(%.4f bpp), mean PSNR %.2f dB; %.1f frames/s\n",
+        a.output.c_str(), static_cast<long long>(n), source.width(), source.height(),
+        static_cast<long long>(groups), static_cast<long long>(bytes), kbps, fps, bpp, psnr_sum / n,
+        n / seconds);
+}
+
+struct DecodeArgs {
+    std::string input, output, frames;
+    bool overwrite = false, json = false;
+};
+
+std::pair<int64_t, int64_t> parse_range(const std::string& text) {
+    if (text.empty()) return {0, INT64_MAX};
+    const size_t colon = text.find(':');
+    auto number = [&](const std::string& s, int64_t fallback) -> int64_t {
+        if (s.empty()) return fallback;
+        size_t used = 0;
+        long long v = -1;
+        try {
+            v = std::stoll(s, &used);
+        } catch (const std::exception&) {
+        }
+        if (used != s.size() || v < 0) {
+            throw Error(str("--frames: expected A:B with frame numbers, got \"", text, "\""));
+        }
+        return v;
+    };
+    if (colon == std::string::npos) {
+        const int64_t f = number(text, -1);
+        return {f, f};
+    }
+    const int64_t a = number(text.substr(0, colon), 0);
+    const int64_t b = number(text.substr(colon + 1), INT64_MAX);
+    if (b < a) throw Error(str("--frames: the range \"", text, "\" is empty"));
+    return {a, b};
+}
+
+void run_decode(const DecodeArgs& a) {
+    check_output(a.output, a.overwrite, {a.input});
+    const auto [first, last] = parse_range(a.frames);
+    const auto start = std::chrono::steady_clock::now();
+    video::VideoDecoder decoder(a.input);
+    const video::TwvHeader& h = decoder.header();
+    if (!decoder.seek(first)) {
+        throw Error(decoder.damage().empty() ? str(a.input, ": the clip ends before frame ", first)
+                                             : decoder.damage());
+    }
+    FrameSink sink(a.output, h.width, h.height, h.fps());
+    ProgressBar bar;
+    const int64_t count = decoder.frame_count().value_or(-1);
+    const int64_t end = count > 0 ? std::min(last, count - 1) : last;
+    Image frame;
+    for (int64_t f = first; f <= last && decoder.read(frame); ++f) {
+        sink.write(frame);
+        if (end < INT64_MAX)
+            bar.update(double(f - first + 1) / double(end - first + 1), "decoding");
+    }
+    if (sink.frames() == 0)
+        throw Error(decoder.damage().empty() ? str(a.input, ": no frames") : decoder.damage());
+    sink.finish();
+    const double seconds = seconds_since(start);
+    if (!decoder.damage().empty()) {
+        std::fprintf(stderr, "warning: %s; wrote the %lld frames before it\n",
+                     decoder.damage().c_str(), static_cast<long long>(sink.frames()));
+    }
+    if (a.json) {
+        std::printf("%s\n", nlohmann::json{{"input", a.input},
+                                           {"output", a.output},
+                                           {"first", first},
+                                           {"frames", sink.frames()},
+                                           {"damage", decoder.damage()},
+                                           {"seconds", seconds},
+                                           {"fps", sink.frames() / seconds}}
+                                .dump(2)
+                                .c_str());
+        return;
+    }
+    std::printf("%s: %lld frames %dx%d from frame %lld; %.1f frames/s\n", a.output.c_str(),
+                static_cast<long long>(sink.frames()), h.width, h.height,
+                static_cast<long long>(first), sink.frames() / seconds);
+}
+
+}  // namespace
+
+std::vector<std::string> video_demo(const std::string& clip, const std::string& dir) {
+    const double kbps = 300;
+    std::printf("\nvideo codec (.twv) on %s at %.0f kbit/s:\n", clip.c_str(), kbps);
+    struct Method {
+        const char* name;
+        const char* file;
+        video::VideoEncodeOptions options;
+    };
+    const Method methods[] = {
+        {"moving mesh", "clip.twv", {.kbps = kbps}},
+        {"static mesh", "clip_static.twv", {.motion = video::TwvMotion::none, .kbps = kbps}},
+        {"fixed grid 5/3", "clip_grid53.twv", {.transform = TwiTransform::grid53, .kbps = kbps}},
+    };
+    const std::string mesh_dir = (fs::path(dir) / "clip_mesh").string();
+    prepare_folder(mesh_dir, true);
+    std::vector<std::string> written{mesh_dir + "/ (frames 0, 10, 20 with the mesh and tracks)"};
+    double psnr[3] = {};
+    for (int k = 0; k < 3; ++k) {
+        const Method& m = methods[k];
+        FrameSource source(clip);
+        const std::string path = (fs::path(dir) / m.file).string();
+        video::VideoEncoder encoder(path, source.width(), source.height(), source.fps(), m.options);
+        Image frame;
+        int64_t n = 0, groups = 0;
+        const auto start = std::chrono::steady_clock::now();
+        while (source.read(frame)) {
+            const video::EncodedFrame f = encoder.encode(frame);
+            if (k == 0 && n % 10 == 0 && n <= 20) write_debug_frame(mesh_dir, n, frame, encoder);
+            psnr[k] += f.psnr;
+            groups += f.kind == video::TwvFrameKind::intra;
+            ++n;
+        }
+        const int64_t bytes = encoder.finish();
+        const double seconds = seconds_since(start);
+        written.push_back(path);
+        psnr[k] /= n;
+        std::printf(
+            "  %-15s %6lld bytes  %6.1f kbit/s  %.3f bpp  PSNR %6.2f dB  %2lld groups  "
+            "%5.1f frames/s\n",
+            m.name, static_cast<long long>(bytes), bytes * 8.0 / 1000 / (n / source.fps()),
+            bytes * 8.0 / (double(n) * source.width() * source.height()), psnr[k],
+            static_cast<long long>(groups), n / seconds);
+    }
+    std::printf("  moving mesh: %+.2f dB over the static mesh, %+.2f dB over the fixed-grid 5/3\n",
+                psnr[0] - psnr[1], psnr[0] - psnr[2]);
+    video::VideoDecoder decoder((fs::path(dir) / "clip.twv").string());
+    const std::string decoded = (fs::path(dir) / "clip_decoded.mp4").string();
+    FrameSink sink(decoded, decoder.header().width, decoder.header().height,
+                   decoder.header().fps());
+    Image frame;
+    while (decoder.read(frame)) sink.write(frame);
+    sink.finish();
+    written.push_back(decoded);
+    return written;
+}
+
+void add_video_commands(CLI::App& app) {
+    auto e = std::make_shared<EncodeArgs>();
+    auto* enc = app.add_subcommand("encode",
+                                   "Compress a clip to .twv (coefficient deltas on a "
+                                   "mesh that follows the content)");
+    enc->add_option("input", e->input,
+                    "Clip: any file FFmpeg reads, a folder of frames, or raw .yuv (with --size)")
+        ->required();
+    enc->add_option("-o,--output", e->output, "Output .twv file")->required();
+    auto* kbps = enc->add_option("--kbps", e->kbps, "Rate in kbit/s (every frame's bytes capped)")
+                     ->check(positive("a rate"));
+    enc->add_option("--quality", e->quality, "Target PSNR in dB (default 36)")
+        ->check(CLI::Range(10.0, 80.0))
+        ->excludes(kbps);
+    enc->add_option("--grid", e->grid, "Fixed-grid wavelet on the pixels instead: 53 or 97")
+        ->check(CLI::IsMember({"53", "97"}));
+    enc->add_option("--motion", e->motion, "Mesh motion: tracked (default) or none (static mesh)")
+        ->check(CLI::IsMember({"tracked", "none"}));
+    enc->add_option("--motion-level", e->motion_level,
+                    "The moving mesh is T_k of the base grid (finer motion, k levels fewer)")
+        ->check(CLI::Range(0, 6));
+    enc->add_option("--density", e->density, "Mesh samples per pixel (default 2)")
+        ->check(positive("a density"));
+    enc->add_option("-J,--levels", e->levels, "Mesh level J, or fixed-grid levels")
+        ->check(CLI::Range(1, 12));
+    enc->add_option("-g,--group", e->group, "Intra period: frames per group (default 32)")
+        ->check(CLI::Range(1, 100000));
+    enc->add_option("--intra-weight", e->intra_weight,
+                    "With --kbps: an intra frame's budget in delta frames (default 4)")
+        ->check(CLI::Range(1.0, 100.0));
+    enc->add_option("--frames", e->max_frames, "Code at most this many frames")
+        ->check(CLI::Range(int64_t{1}, int64_t{100'000'000}));
+    enc->add_option("--fps", e->fps, "Frame rate (default: the clip's, or 25)")
+        ->check(CLI::Range(0.001, 1000.0));
+    enc->add_option("--size", e->size, "Raw .yuv input: frame size WxH");
+    enc->add_option("--pix-fmt", e->pixel_format,
+                    "Raw .yuv input: yuv420p, yuv422p, yuv444p, gray");
+    enc->add_option("--debug-dir", e->debug_dir,
+                    "Write each frame with its mesh and tracks as PNG into this folder");
+    enc->add_flag("-y,--overwrite", e->overwrite, "Overwrite outputs");
+    enc->add_flag("--json", e->json, "Print the result (and every frame) as JSON");
+    enc->callback([e] { run_encode(*e); });
+
+    auto d = std::make_shared<DecodeArgs>();
+    auto* dec = app.add_subcommand("decode", "Decompress a .twv clip");
+    dec->add_option("input", d->input, "Input .twv file")->required();
+    dec->add_option("-o,--output", d->output,
+                    "Output: .mp4 (H.264), .mkv (lossless FFV1), .y4m, or a folder for PNG frames")
+        ->required();
+    dec->add_option("--frames", d->frames, "Frames A:B (inclusive; A: or :B open), or one frame");
+    dec->add_flag("-y,--overwrite", d->overwrite, "Overwrite the output");
+    dec->add_flag("--json", d->json, "Print the result as JSON");
+    dec->callback([d] { run_decode(*d); });
+}
+
+}  // namespace tesswave::cli

@@ -1,0 +1,210 @@
+// Damaged .twv files: every cut decodes the whole frames before it, every flipped byte decodes or
+// stops with a message (never a crash, a hang or an unbounded allocation), and crafted chunks
+// with valid CRCs but impossible contents are refused.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+
+#include "core/byte_io.h"
+#include "core/error.h"
+#include "samples/sample_clip.h"
+#include "video/dec_video.h"
+#include "video/enc_video.h"
+#include "video/twv_format.h"
+
+namespace tesswave::video {
+namespace {
+
+namespace fs = std::filesystem;
+using Bytes = std::vector<uint8_t>;
+
+std::string temp_path(const std::string& name) {
+    return (fs::temp_directory_path() / ("tesswave_twv_test_" + name)).string();
+}
+
+Bytes read_bytes(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    return Bytes(std::istreambuf_iterator<char>(in), {});
+}
+
+void write_bytes(const std::string& path, const Bytes& b) {
+    std::ofstream out(path, std::ios::binary | std::ios::trunc);
+    out.write(reinterpret_cast<const char*>(b.data()), static_cast<std::streamsize>(b.size()));
+}
+
+// A small clip: 48x32, 5 frames, tracked mesh, a new group at frame 3, about 1.3 kB.
+Bytes small_file(const std::string& path) {
+    const samples::SampleClipOptions o{.width = 48, .height = 32, .frames = 5, .pan = {1, 0.5}};
+    VideoEncoder encoder(path, o.width, o.height, 25, {.group = 3, .kbps = 40});
+    for (int t = 0; t < o.frames; ++t) encoder.encode(samples::sample_clip_frame(o, t));
+    encoder.finish();
+    return read_bytes(path);
+}
+
+struct Decoded {
+    std::vector<Image> frames;
+    std::string damage;
+};
+
+// Decodes what it can; an Error from the constructor (a damaged file header) gives no frames.
+Decoded decode(const std::string& path) {
+    Decoded out;
+    try {
+        VideoDecoder decoder(path);
+        Image frame;
+        while (decoder.read(frame)) out.frames.push_back(frame);
+        out.damage = decoder.damage();
+    } catch (const Error& e) {
+        out.damage = e.what();
+    }
+    return out;
+}
+
+// The end offset of every frame chunk, from the file's own index; `boundaries` gets every
+// offset where a cut leaves whole chunks only.
+std::vector<uint64_t> frame_ends(const Bytes& file, std::vector<uint64_t>* boundaries = nullptr) {
+    uint64_t index_offset = 0;
+    for (int i = 7; i >= 0; --i) index_offset = (index_offset << 8) | file[file.size() - 12 + i];
+    ByteReader r(std::span<const uint8_t>(file).subspan(index_offset), "index");
+    r.u8("tag");
+    const auto size = r.varint("size");
+    const TwvIndex index = read_twv_index(r.bytes(size, "payload"), index_offset, "index");
+    std::vector<uint64_t> starts = index.frame_offsets;
+    starts.insert(starts.end(), index.group_offsets.begin(), index.group_offsets.end());
+    starts.push_back(index_offset);
+    std::sort(starts.begin(), starts.end());
+    if (boundaries) *boundaries = starts;
+    std::vector<uint64_t> ends;
+    for (uint64_t f : index.frame_offsets)
+        ends.push_back(*std::upper_bound(starts.begin(), starts.end(), f));
+    return ends;
+}
+
+TEST(TwvRobustness, EveryCutDecodesTheWholeFramesBeforeIt) {
+    const std::string path = temp_path("cut_source.twv"), cut = temp_path("cut.twv");
+    const Bytes file = small_file(path);
+    const Decoded full = decode(path);
+    ASSERT_EQ(full.frames.size(), 5u);
+    ASSERT_EQ(full.damage, "");
+    std::vector<uint64_t> boundaries;
+    const std::vector<uint64_t> ends = frame_ends(file, &boundaries);
+    boundaries.push_back(write_twv_header({}).size());  // a header alone is a clip of no frames
+    EXPECT_LT(file.size(), 2000u);
+    for (size_t n = 0; n < file.size(); ++n) {
+        write_bytes(cut, Bytes(file.begin(), file.begin() + static_cast<std::ptrdiff_t>(n)));
+        const Decoded d = decode(cut);
+        const size_t whole = static_cast<size_t>(
+            std::count_if(ends.begin(), ends.end(), [&](uint64_t e) { return e <= n; }));
+        ASSERT_EQ(d.frames.size(), whole) << "cut at " << n << ": " << d.damage;
+        for (size_t t = 0; t < whole; ++t) ASSERT_EQ(d.frames[t].planes, full.frames[t].planes);
+        // Whole chunks only, or a whole index with a cut trailer.
+        const bool clean = std::find(boundaries.begin(), boundaries.end(), n) != boundaries.end() ||
+                           n >= file.size() - kTwvTrailerBytes;
+        EXPECT_EQ(d.damage.empty(), clean) << "cut at " << n << ": " << d.damage;
+    }
+    fs::remove(path);
+    fs::remove(cut);
+}
+
+TEST(TwvRobustness, EveryFlippedByteDecodesOrStopsWithAMessage) {
+    const std::string path = temp_path("flip_source.twv"), flipped = temp_path("flip.twv");
+    const Bytes file = small_file(path);
+    const Decoded full = decode(path);
+    const std::vector<uint64_t> ends = frame_ends(file);
+    int stopped = 0, complete = 0;
+    for (size_t i = 0; i < file.size(); ++i) {
+        for (uint8_t mask : {uint8_t{0xFF}, uint8_t{0x10}}) {
+            Bytes b = file;
+            b[i] ^= mask;
+            write_bytes(flipped, b);
+            const Decoded d = decode(flipped);
+            // Frames before the damaged chunk are decoded exactly; a flip in the index or the
+            // trailer only costs the index.
+            ASSERT_LE(d.frames.size(), full.frames.size());
+            for (size_t t = 0; t < d.frames.size(); ++t) {
+                ASSERT_EQ(d.frames[t].planes, full.frames[t].planes) << "byte " << i;
+            }
+            const size_t before = static_cast<size_t>(
+                std::count_if(ends.begin(), ends.end(), [&](uint64_t e) { return e <= i; }));
+            EXPECT_GE(d.frames.size(), std::min(before, full.frames.size())) << "byte " << i;
+            (d.damage.empty() ? complete : stopped)++;
+        }
+    }
+    EXPECT_GT(stopped, 0);
+    EXPECT_GT(complete, 0);  // index and trailer flips
+    fs::remove(path);
+    fs::remove(flipped);
+}
+
+TEST(TwvRobustness, ForeignAndEmptyFilesAreRefused) {
+    const std::string path = temp_path("foreign.twv");
+    for (const Bytes& b :
+         {Bytes{}, Bytes{'T', 'W', 'V'}, Bytes{'T', 'W', 'I', 0x1A, 1, 2, 3}, Bytes(1000, 0x5A)}) {
+        write_bytes(path, b);
+        EXPECT_THROW(VideoDecoder{path}, Error);
+    }
+    EXPECT_THROW(VideoDecoder{temp_path("missing.twv")}, Error);
+    fs::remove(path);
+}
+
+// A file of a header and the given chunks (valid CRCs), without an index.
+std::string crafted(const std::vector<Bytes>& chunks) {
+    Bytes file = write_twv_header({.width = 32, .height = 24});
+    for (const Bytes& c : chunks) file.insert(file.end(), c.begin(), c.end());
+    const std::string path = temp_path("crafted.twv");
+    write_bytes(path, file);
+    return path;
+}
+
+Bytes group_chunk(TwvGroup g) { return twv_chunk('G', write_twv_group(g)); }
+
+TEST(TwvRobustness, CraftedChunksWithValidCrcsAreRefused) {
+    const TwvHeader header{.width = 32, .height = 24};
+    TwvGroup g{.transform = TwiTransform::grid53, .levels = 2, .channel_factors = {1, 1, 1}};
+    g.band_norms.assign(twv_band_count(g, header), 1.0f);
+    TwvFrame intra{.number = 0, .kind = TwvFrameKind::intra};
+    intra.planes.assign(3, std::vector<uint8_t>(g.band_norms.size(), 0));
+    TwvFrame delta = intra;
+    delta.kind = TwvFrameKind::delta;
+    const Bytes frame0 = twv_chunk('F', write_twv_frame(intra, g));
+    delta.number = 1;
+    const Bytes frame1 = twv_chunk('F', write_twv_frame(delta, g));
+    struct Case {
+        const char* what;
+        std::vector<Bytes> chunks;
+        size_t frames;
+    };
+    TwvGroup huge = g;
+    huge.transform = TwiTransform::mesh;
+    huge.levels = 12;
+    huge.grid_cols = 32;
+    huge.grid_rows = 24;
+    huge.band_norms.assign(25, 1.0f);
+    TwvGroup late = g;
+    late.first_frame = 7;
+    Bytes oversized{'F'};
+    for (int i = 0; i < 5; ++i) oversized.push_back(0xFF);
+    oversized.push_back(0x0F);
+    const Case cases[] = {
+        {"a sound clip", {group_chunk(g), frame0, frame1}, 2},
+        {"a frame before any group", {frame0}, 0},
+        {"a delta frame first", {group_chunk(g), frame1}, 0},
+        {"a frame number out of order", {group_chunk(g), frame1, frame0}, 0},
+        {"a second intra frame inside a group", {group_chunk(g), frame0, frame0}, 1},
+        {"a group at the wrong frame", {group_chunk(late), frame0}, 0},
+        {"a mesh over the sample limit", {group_chunk(huge), frame0}, 0},
+        {"a chunk claiming 2^40 bytes", {group_chunk(g), frame0, oversized}, 1},
+        {"an unknown chunk", {group_chunk(g), frame0, twv_chunk('Q', Bytes{1, 2})}, 1},
+    };
+    for (const Case& c : cases) {
+        const Decoded d = decode(crafted(c.chunks));
+        EXPECT_EQ(d.frames.size(), c.frames) << c.what;
+        EXPECT_EQ(d.damage.empty(), c.frames == 2) << c.what << ": " << d.damage;
+    }
+    fs::remove(temp_path("crafted.twv"));
+}
+
+}  // namespace
+}  // namespace tesswave::video

@@ -1,0 +1,223 @@
+#include "dec_video.h"
+
+#include <algorithm>
+
+#include "core/byte_io.h"
+#include "core/error.h"
+#include "core/strings.h"
+#include "mesh_motion.h"
+
+namespace tesswave::video {
+namespace {
+
+bool same_domain(const TwvGroup& a, const TwvGroup& b) {
+    return a.transform == b.transform && a.levels == b.levels && a.motion == b.motion &&
+           a.grid_cols == b.grid_cols && a.grid_rows == b.grid_rows &&
+           a.channel_factors == b.channel_factors && a.band_norms == b.band_norms;
+}
+
+}  // namespace
+
+VideoDecoder::VideoDecoder(const std::string& path, const TwvLimits& limits)
+    : path_(path), limits_(limits) {
+    file_.open(path, std::ios::binary);
+    if (!file_) throw Error(str(path, ": cannot open"));
+    file_.seekg(0, std::ios::end);
+    const auto size = file_.tellg();
+    if (size < 0) throw Error(str(path, ": cannot read"));
+    file_size_ = static_cast<uint64_t>(size);
+    std::vector<uint8_t> head(std::min<uint64_t>(file_size_, 64));
+    file_.seekg(0);
+    file_.read(reinterpret_cast<char*>(head.data()), static_cast<std::streamsize>(head.size()));
+    if (!file_) throw Error(str(path, ": cannot read"));
+    size_t used = 0;
+    header_ = read_twv_header(head, path, used, limits);
+    position_ = header_bytes_ = used;
+    data_end_ = file_size_;
+    read_index();
+}
+
+VideoDecoder::~VideoDecoder() = default;
+
+std::optional<int64_t> VideoDecoder::frame_count() const {
+    if (!index_) return std::nullopt;
+    return static_cast<int64_t>(index_->frame_offsets.size());
+}
+
+std::optional<int64_t> VideoDecoder::group_count() const {
+    if (!index_) return std::nullopt;
+    return static_cast<int64_t>(index_->group_offsets.size());
+}
+
+// The trailer names the index chunk; a missing or damaged one leaves the file to be scanned.
+void VideoDecoder::read_index() {
+    if (file_size_ < position_ + kTwvTrailerBytes) return;
+    uint8_t t[kTwvTrailerBytes];
+    file_.seekg(static_cast<std::streamoff>(file_size_ - kTwvTrailerBytes));
+    file_.read(reinterpret_cast<char*>(t), kTwvTrailerBytes);
+    if (!file_ || !std::equal(t + 8, t + 12, kTwvTrailerMagic)) {
+        file_.clear();
+        return;
+    }
+    uint64_t offset = 0;
+    for (int i = 7; i >= 0; --i) offset = (offset << 8) | t[i];
+    if (offset < position_ || offset >= file_size_ - kTwvTrailerBytes) return;
+    const uint64_t saved_end = data_end_;
+    data_end_ = file_size_ - kTwvTrailerBytes;
+    std::optional<Chunk> chunk = read_chunk(offset);
+    data_end_ = saved_end;
+    damage_.clear();
+    if (!chunk || chunk->tag != 'I' || chunk->end != file_size_ - kTwvTrailerBytes) return;
+    try {
+        index_ = read_twv_index(chunk->payload, offset, str(path_, ": index"), limits_);
+        data_end_ = offset;
+    } catch (const Error&) {
+        index_.reset();
+    }
+}
+
+std::optional<VideoDecoder::Chunk> VideoDecoder::read_chunk(uint64_t offset) {
+    if (offset >= data_end_) return std::nullopt;
+    const auto fail = [&](const std::string& why) {
+        damage_ = str(path_, ": ", why, " at byte ", offset);
+        return std::nullopt;
+    };
+    file_.clear();
+    file_.seekg(static_cast<std::streamoff>(offset));
+    ByteWriter head;  // tag and size bytes, for the CRC
+    uint8_t byte = 0;
+    uint64_t size = 0;
+    for (int i = 0; i < 11; ++i) {
+        if (offset + head.size() >= data_end_ || !file_.read(reinterpret_cast<char*>(&byte), 1)) {
+            return fail("truncated chunk");
+        }
+        head.u8(byte);
+        if (i == 0) continue;
+        if (i == 10) return fail("bad chunk size");
+        size |= uint64_t{byte & 0x7Fu} << (7 * (i - 1));
+        if (!(byte & 0x80)) break;
+    }
+    const uint64_t start = offset + head.size();
+    if (size > static_cast<uint64_t>(limits_.max_chunk_bytes)) {
+        return fail(str("chunk of ", size, " bytes exceeds the limit"));
+    }
+    if (size + 4 > data_end_ - start) return fail("truncated chunk");
+    Chunk chunk;
+    chunk.tag = head.data()[0];
+    chunk.offset = offset;
+    chunk.end = start + size + 4;
+    chunk.payload.resize(size);
+    uint8_t crc_bytes[4];
+    if (!file_.read(reinterpret_cast<char*>(chunk.payload.data()),
+                    static_cast<std::streamsize>(size)) ||
+        !file_.read(reinterpret_cast<char*>(crc_bytes), 4)) {
+        return fail("truncated chunk");
+    }
+    const uint32_t crc = uint32_t{crc_bytes[0]} | uint32_t{crc_bytes[1]} << 8 |
+                         uint32_t{crc_bytes[2]} << 16 | uint32_t{crc_bytes[3]} << 24;
+    if (crc != crc32(chunk.payload, crc32(head.data())))
+        return fail("damaged chunk (CRC mismatch)");
+    return chunk;
+}
+
+void VideoDecoder::start_group(const Chunk& chunk) {
+    TwvGroup g = read_twv_group(chunk.payload, header_, str(path_, ": group"), limits_);
+    if (g.first_frame != next_frame_) {
+        throw Error(
+            str(path_, ": group starts at frame ", g.first_frame, ", expected ", next_frame_));
+    }
+    if (!domain_ || !same_domain(g, group_))
+        domain_ = std::make_unique<TwvDomain>(header_, g, false);
+    group_ = std::move(g);
+    in_group_ = true;
+}
+
+void VideoDecoder::decode_frame(const Chunk& chunk, Image* out) {
+    const std::string what = str(path_, ": frame ", next_frame_);
+    if (!in_group_) throw Error(str(what, " comes before any group"));
+    TwvFrame f = read_twv_frame(chunk.payload, group_, header_, what);
+    if (f.number != next_frame_) throw Error(str(what, ": the chunk says frame ", f.number));
+    const bool first = next_frame_ == group_.first_frame;
+    if (first != (f.kind == TwvFrameKind::intra)) {
+        throw Error(str(what, first ? " must be an intra frame" : " is an unexpected intra frame"));
+    }
+    std::vector<Vec2> vertices;
+    if (domain_->is_mesh()) {
+        const std::vector<Vec2>& rest = domain_->mesh().vertices;
+        if (group_.motion == TwvMotion::tracked) {
+            const bool two_back = next_frame_ >= group_.first_frame + 2;
+            const std::vector<Vec2>& from = first ? rest : vertices_;
+            vertices = f.motion.empty() ? from
+                                        : decode_motion(f.motion, from,
+                                                        two_back ? std::span<const Vec2>(previous_)
+                                                                 : std::span<const Vec2>(),
+                                                        domain_->mesh(), what);
+        } else {
+            vertices = rest;
+        }
+    }
+    if (first) coefficients_ = domain_->zeros();
+    add_decoded_residual(*domain_, f, coefficients_);
+    previous_ = std::move(vertices_);
+    vertices_ = std::move(vertices);
+    info_ = {.number = f.number,
+             .kind = f.kind,
+             .bytes = static_cast<int64_t>(chunk.end - chunk.offset),
+             .motion_bytes = static_cast<int64_t>(f.motion.size())};
+    if (out) domain_->synthesize(coefficients_, vertices_, *out);
+    ++next_frame_;
+}
+
+bool VideoDecoder::read(Image& out, bool render) {
+    if (!damage_.empty()) return false;
+    try {
+        for (;;) {
+            std::optional<Chunk> chunk = read_chunk(position_);
+            if (!chunk) return false;
+            if (chunk->tag == 'I') return false;  // an index whose trailer was cut off
+            if (chunk->tag == 'G') {
+                start_group(*chunk);
+            } else if (chunk->tag == 'F') {
+                decode_frame(*chunk, render ? &out : nullptr);
+                position_ = chunk->end;
+                return true;
+            } else {
+                throw Error(str(path_, ": unknown chunk '", static_cast<int>(chunk->tag),
+                                "' at byte ", chunk->offset));
+            }
+            position_ = chunk->end;
+        }
+    } catch (const Error& e) {
+        damage_ = e.what();
+        return false;
+    }
+}
+
+bool VideoDecoder::seek(int64_t frame) {
+    if (frame < 0) throw Error(str(path_, ": frame ", frame, " does not exist"));
+    if (index_) {
+        if (frame >= static_cast<int64_t>(index_->frame_offsets.size())) return false;
+        const auto& first = index_->group_first;
+        const auto it = std::upper_bound(first.begin(), first.end(), frame);
+        const size_t g = static_cast<size_t>(it - first.begin()) - 1;
+        const bool ahead = in_group_ && group_.first_frame == first[g] && next_frame_ <= frame;
+        if (!ahead) {
+            position_ = index_->group_offsets[g];
+            next_frame_ = first[g];
+            in_group_ = false;
+            damage_.clear();
+        }
+    } else if (next_frame_ > frame) {
+        position_ = header_bytes_;
+        next_frame_ = 0;
+        in_group_ = false;
+        damage_.clear();
+    }
+    Image skipped;
+    while (next_frame_ < frame) {
+        if (!read(skipped, false)) return false;
+    }
+    return true;
+}
+
+}  // namespace tesswave::video

@@ -1,0 +1,83 @@
+// The .twv decoder (DESIGN.md 4): reads a clip chunk by chunk, keeps the previous frame's decoded
+// coefficients and vertex positions, adds each delta frame's residual and renders the frame on
+// its mesh. Needs neither tracking nor fitting. Memory holds one group's domain and one frame's
+// coefficients, whatever the clip's length. A cut or damaged file decodes up to its last whole,
+// intact frame; damage() then says where and why.
+#pragma once
+
+#include <cstdint>
+#include <fstream>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/image.h"
+#include "twv_domain.h"
+#include "twv_format.h"
+
+namespace tesswave::video {
+
+struct TwvFrameInfo {
+    int64_t number = 0;
+    TwvFrameKind kind = TwvFrameKind::intra;
+    int64_t bytes = 0;         // the whole chunk
+    int64_t motion_bytes = 0;  // vertex motion within it
+};
+
+class VideoDecoder {
+  public:
+    // Throws Error("<path>: ...") for a missing or unreadable file or a damaged file header.
+    explicit VideoDecoder(const std::string& path, const TwvLimits& limits = {});
+    ~VideoDecoder();
+
+    const TwvHeader& header() const { return header_; }
+    int64_t file_bytes() const { return file_size_; }
+    // From the index; nullopt when the file has none (cut files).
+    std::optional<int64_t> frame_count() const;
+    std::optional<int64_t> group_count() const;
+
+    // The next frame: true and `out` filled, or false at the end of the clip or at the first
+    // damage (then damage() is non-empty). With `render` false the frame is decoded but not
+    // rendered (seeking past frames).
+    bool read(Image& out, bool render = true);
+    // Positions the decoder so that the next read() returns frame `frame`: from the index, it
+    // starts at that frame's group (false for a frame past the last); without one it decodes
+    // from the start (or on from where it is). False (with damage()) when the clip breaks first.
+    bool seek(int64_t frame);
+    const std::string& damage() const { return damage_; }
+
+    // Of the frame read last.
+    const TwvFrameInfo& info() const { return info_; }
+    const TwvGroup& group() const { return group_; }
+    std::span<const Vec2> vertices() const { return vertices_; }
+    const Mesh* mesh() const { return domain_ && domain_->is_mesh() ? &domain_->mesh() : nullptr; }
+
+  private:
+    struct Chunk {
+        uint8_t tag = 0;
+        std::vector<uint8_t> payload;
+        uint64_t offset = 0, end = 0;
+    };
+    std::optional<Chunk> read_chunk(uint64_t offset);
+    void read_index();
+    void start_group(const Chunk& chunk);
+    void decode_frame(const Chunk& chunk, Image* out);
+
+    std::string path_;
+    TwvLimits limits_;
+    std::ifstream file_;
+    uint64_t file_size_ = 0, header_bytes_ = 0, data_end_ = 0, position_ = 0;
+    TwvHeader header_;
+    std::optional<TwvIndex> index_;
+    TwvGroup group_;
+    std::unique_ptr<TwvDomain> domain_;
+    bool in_group_ = false;
+    int64_t next_frame_ = 0;  // the frame number the next frame chunk must carry
+    Planes coefficients_;
+    std::vector<Vec2> vertices_, previous_;  // this frame's and the one before (empty: none)
+    TwvFrameInfo info_;
+    std::string damage_;
+};
+
+}  // namespace tesswave::video

@@ -1,0 +1,88 @@
+#include "enc_motion.h"
+
+#include <algorithm>
+
+#include "core/error.h"
+#include "core/strings.h"
+
+namespace tesswave::video {
+
+MeshMotion::MeshMotion(const Mesh& rest, const MeshMotionOptions& options)
+    : rest_(rest), options_(options), tracker_(options.tracker) {}
+
+void MeshMotion::track(const Image& frame) { tracks_ = &tracker_.next(frame); }
+
+MotionStep MeshMotion::fit(std::span<const Vec2> previous) const {
+    MotionStep step;
+    std::vector<Vec2> a, b;
+    for (const Track& t : *tracks_) {
+        if (t.born) continue;
+        const auto it = rest_point_.find(t.id);
+        if (it == rest_point_.end()) continue;
+        a.push_back(it->second);
+        b.push_back(t.position);
+    }
+    step.tracks = static_cast<int>(a.size());
+    if (step.tracks < options_.min_tracks) {
+        step.failure = str(step.tracks, " tracks left (need ", options_.min_tracks, ")");
+        return step;
+    }
+    MeshFitOptions o;
+    o.rigidity_weight = options_.rigidity_weight;
+    o.smoothness_weight = options_.smoothness_weight;
+    o.previous = previous;
+    o.temporal_weight = options_.temporal_weight;
+    MeshFitResult r;
+    try {
+        r = fit_mesh(rest_, a, b, rest_.width, rest_.height, o);
+    } catch (const Error& e) {
+        step.failure = e.what();
+        return step;
+    }
+    step.rms = r.rms;
+    // The median residual: tracks on independently moving objects are outliers of the mesh's
+    // motion, not failures of the fit.
+    std::vector<double> residuals = r.residuals;
+    const auto middle = residuals.begin() + static_cast<std::ptrdiff_t>(residuals.size() / 2);
+    std::nth_element(residuals.begin(), middle, residuals.end());
+    if (*middle > options_.max_median) {
+        step.failure = str("median fit residual ", *middle, " px exceeds ", options_.max_median);
+        return step;
+    }
+    Mesh moved = rest_;
+    moved.vertices = r.vertices;
+    for (int f = 0; f < rest_.num_faces(); ++f) {
+        if (face_signed_area(moved, f) < options_.min_area_ratio * face_signed_area(rest_, f)) {
+            step.failure =
+                str("face ", f, " shrank below ", options_.min_area_ratio, " of its rest area");
+            return step;
+        }
+    }
+    step.vertices = std::move(r.vertices);
+    return step;
+}
+
+void MeshMotion::pin(std::span<const Vec2> vertices, bool restart) {
+    if (restart) rest_point_.clear();
+    Mesh moved = rest_;
+    moved.vertices.assign(vertices.begin(), vertices.end());
+    std::vector<int64_t> ids;
+    std::vector<Vec2> points;
+    std::unordered_map<int64_t, Vec2> kept;
+    for (const Track& t : *tracks_) {
+        const auto it = rest_point_.find(t.id);
+        if (it != rest_point_.end()) {
+            kept.emplace(t.id, it->second);
+        } else {
+            ids.push_back(t.id);
+            points.push_back(t.position);
+        }
+    }
+    const auto pins = pin_points(moved, points);
+    for (size_t i = 0; i < pins.size(); ++i) {
+        if (pins[i]) kept.emplace(ids[i], pinned_position(rest_, rest_.vertices, *pins[i]));
+    }
+    rest_point_ = std::move(kept);
+}
+
+}  // namespace tesswave::video

@@ -1,0 +1,61 @@
+// The encoder's mesh motion (DESIGN.md 4): KLT tracks pinned to parametric locations (face, quad,
+// u, v) of the group's mesh, and per frame a Ceres fit of the T0 vertex positions that carries
+// every pinned point to its tracked position, regularized towards the rest mesh (as-similar),
+// smoothness and the previous frame's positions (temporal). A frame whose tracks or fit fail
+// asks for a new group instead of a broken mesh.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <span>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+#include "core/mesh.h"
+#include "core/mesh_fit.h"
+#include "tracker.h"
+
+namespace tesswave::video {
+
+struct MeshMotionOptions {
+    TrackerOptions tracker = {};
+    double rigidity_weight = 0.1;
+    double smoothness_weight = 0.1;
+    double temporal_weight = 0.01;
+    int min_tracks = 12;           // fewer pinned tracks surviving: new group
+    double max_median = 1.0;       // px; a fit whose median residual is worse: new group
+    double min_area_ratio = 0.25;  // a face shrinking below this part of its rest area: new group
+};
+
+struct MotionStep {
+    std::optional<std::vector<Vec2>> vertices;  // the fitted T0 positions, or none
+    std::string failure;                        // why not, when none
+    int tracks = 0;                             // pinned tracks used
+    double rms = 0;                             // of the fit's inliers, px
+};
+
+class MeshMotion {
+  public:
+    // `rest`: the group's mesh at its rest positions (every group starts there).
+    MeshMotion(const Mesh& rest, const MeshMotionOptions& options);
+
+    // Tracks `frame` (every frame, intra or not).
+    void track(const Image& frame);
+    // The current frame's vertices from the pinned tracks, starting from `previous`.
+    MotionStep fit(std::span<const Vec2> previous) const;
+    // Pins the tracks without a pin (born this frame, or every track when `restart`, at a group
+    // start) on the mesh at `vertices`, and forgets the pins of lost tracks.
+    void pin(std::span<const Vec2> vertices, bool restart);
+
+    const std::vector<Track>& tracks() const { return *tracks_; }
+
+  private:
+    Mesh rest_;
+    MeshMotionOptions options_;
+    Tracker tracker_;
+    const std::vector<Track>* tracks_ = nullptr;
+    std::unordered_map<int64_t, Vec2> rest_point_;  // per pinned track: its rest position
+};
+
+}  // namespace tesswave::video

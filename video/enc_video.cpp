@@ -1,0 +1,329 @@
+#include "enc_video.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+
+#include "core/bitplane.h"
+#include "core/colour.h"
+#include "core/error.h"
+#include "core/file_io.h"
+#include "core/metrics.h"
+#include "core/strings.h"
+#include "core/validate.h"
+#include "mesh_motion.h"
+
+namespace tesswave::video {
+namespace {
+
+using IntPlanes = std::vector<std::vector<int32_t>>;
+
+// J of the grid mesh: the shorter side gets 8 to 16 T0 cells, as in the still codec.
+int default_levels(int width, int height, double density) {
+    const double samples = std::min(width, height) * std::sqrt(density);
+    return std::clamp(static_cast<int>(std::floor(std::log2(samples))) - 3, 1, 7);
+}
+
+void fps_fraction(double fps, TwvHeader& h) {
+    if (!(fps > 0) || fps > 1000) throw Error(str("frame rate ", fps, " is out of range"));
+    const int64_t den = std::abs(fps - std::round(fps)) < 1e-9 ? 1 : 1001;
+    const int64_t num = std::llround(fps * static_cast<double>(den));
+    const int64_t g = std::gcd(num, den);
+    h.fps_num = static_cast<int>(num / g);
+    h.fps_den = static_cast<int>(den / g);
+}
+
+TwvGroup choose_group(const TwvHeader& h, const VideoEncodeOptions& o) {
+    TwvGroup g;
+    g.transform = o.transform;
+    g.channel_factors = ycbcr_step_factors(h.channels);
+    if (o.transform != TwiTransform::mesh) {
+        const int fit = static_cast<int>(std::floor(std::log2(std::min(h.width, h.height))));
+        g.levels = std::clamp(o.levels > 0 ? o.levels : 5, 0, std::max(fit, 0));
+        return g;
+    }
+    if (!(o.density > 0) || o.density > 16) {
+        throw Error(str("density ", o.density, " must lie in (0, 16] samples per pixel"));
+    }
+    const int J =
+        o.levels > 0 ? std::min(o.levels, 12) : default_levels(h.width, h.height, o.density);
+    if (o.motion_level < 0 || o.motion_level > J) {
+        throw Error(str("motion level ", o.motion_level, " must lie in [0, ", J, "]"));
+    }
+    const double cell = std::ldexp(1.0, J) / std::sqrt(o.density);
+    const int k = o.motion_level;
+    g.grid_cols = std::max(1, static_cast<int>(std::lround(h.width / cell))) << k;
+    g.grid_rows = std::max(1, static_cast<int>(std::lround(h.height / cell))) << k;
+    g.grid_cols = std::min(g.grid_cols, h.width);
+    g.grid_rows = std::min(g.grid_rows, h.height);
+    g.levels = J - k;
+    g.motion = o.motion;
+    return g;
+}
+
+// Dead-zone quantization: sign floor(|r| / s) per band and channel.
+IntPlanes quantize(const TwvDomain& domain, const Planes& r, float base_step) {
+    const CodingLayout& layout = domain.layout();
+    IntPlanes q(r.size(), std::vector<int32_t>(layout.size, 0));
+    for (size_t c = 0; c < r.size(); ++c) {
+        for (size_t b = 0; b < layout.bands.size(); ++b) {
+            const float inv =
+                1.0f / domain.step(static_cast<int>(c), static_cast<int>(b), base_step);
+            for (int32_t k = layout.bands[b].begin; k < layout.bands[b].end; ++k) {
+                const int32_t id = layout.order[k];
+                const float m = std::floor(std::abs(r[c][id]) * inv);
+                if (!(m < 1e9f)) throw Error("quantizer step too small for this clip");
+                q[c][id] = r[c][id] < 0 ? -static_cast<int32_t>(m) : static_cast<int32_t>(m);
+            }
+        }
+    }
+    return q;
+}
+
+template <class T>
+std::vector<std::span<const T>> const_spans(const std::vector<std::vector<T>>& planes) {
+    return {planes.begin(), planes.end()};
+}
+
+}  // namespace
+
+VideoEncoder::VideoEncoder(const std::string& path, int width, int height, double fps,
+                           const VideoEncodeOptions& o)
+    : path_(path), options_(o) {
+    if (width < 1 || height < 1 || width > 16384 || height > 16384 ||
+        int64_t{width} * height > TwvLimits{}.max_pixels) {
+        throw Error(str("cannot code ", width, "x", height, " frames"));
+    }
+    if ((o.kbps > 0) == (o.quality > 0) || !std::isfinite(o.kbps) || !std::isfinite(o.quality)) {
+        throw Error("give exactly one of a rate (kbps > 0) and a quality (PSNR > 0)");
+    }
+    if (o.quality > 0 && (o.quality < 10 || o.quality > 80)) {
+        throw Error(str("quality ", o.quality, " dB must lie in [10, 80]"));
+    }
+    if (o.group < 1) throw Error(str("group length ", o.group, " must be at least 1"));
+    if (!(o.intra_weight >= 1) || o.intra_weight > 100) {
+        throw Error(str("intra weight ", o.intra_weight, " must lie in [1, 100]"));
+    }
+    header_.width = width;
+    header_.height = height;
+    fps_fraction(fps, header_);
+    group_ = choose_group(header_, o);
+    domain_ = std::make_unique<TwvDomain>(header_, group_, true);
+    for (const CodingBand& b : domain_->layout().bands) {
+        group_.band_norms.push_back(static_cast<float>(b.norm));
+    }
+    if (domain_->is_mesh() && group_.motion == TwvMotion::tracked) {
+        motion_ = std::make_unique<MeshMotion>(domain_->mesh(), o.mesh_motion);
+    }
+    temporary_ = temporary_name(path);
+    out_.open(temporary_, std::ios::binary | std::ios::trunc);
+    if (!out_) throw Error(str(path, ": cannot write"));
+    write(write_twv_header(header_));
+}
+
+VideoEncoder::~VideoEncoder() {
+    if (!finished_) {
+        out_.close();
+        discard_temporary(temporary_);
+    }
+}
+
+const Mesh* VideoEncoder::mesh() const { return domain_->is_mesh() ? &domain_->mesh() : nullptr; }
+
+const std::vector<Track>* VideoEncoder::tracks() const {
+    return motion_ ? &motion_->tracks() : nullptr;
+}
+
+void VideoEncoder::write(const std::vector<uint8_t>& bytes) {
+    out_.write(reinterpret_cast<const char*>(bytes.data()),
+               static_cast<std::streamsize>(bytes.size()));
+    if (!out_) throw Error(str(path_, ": write failed"));
+    written_ += bytes.size();
+}
+
+// A frame's share of the rate: a group of G frames gets G B bytes (B a frame), its intra frame
+// w times a delta frame's d = G B / (w + G - 1).
+double VideoEncoder::frame_share(bool intra) const {
+    const double B = options_.kbps * 1000 / 8 / header_.fps();
+    const double G = options_.group, w = options_.intra_weight;
+    const double delta = G * B / (w + G - 1);
+    return intra ? w * delta : delta;
+}
+
+// The frame's byte budget. The plan after t frames, k of them in the current group, is
+// t B + (w + k - 1) d - k B (the group's front-loaded intra, repaid by G). Bytes spent beyond the
+// plan (a group cut short by a tracking failure, the file header) are repaid a quarter per frame;
+// bytes left unspent go to the next frame.
+int64_t VideoEncoder::frame_budget(bool intra, uint64_t spent) const {
+    const double B = options_.kbps * 1000 / 8 / header_.fps();
+    const double k = intra ? 0 : static_cast<double>(in_group_);
+    const double front = k > 0 ? frame_share(true) + (k - 1) * frame_share(false) - k * B : 0;
+    const double debt = static_cast<double>(spent) - (static_cast<double>(frames_) * B + front);
+    const double share = frame_share(intra);
+    const double budget = share - (debt > 0 ? 0.25 * debt : debt);
+    return static_cast<int64_t>(std::floor(std::max(budget, 0.25 * share)));
+}
+
+// The base step whose intra image reaches the target PSNR: bisection on log2 of the step, each
+// probe quantized and dequantized directly (what a fully decoded intra frame holds).
+float VideoEncoder::calibrate_step(const Image& frame) {
+    Planes x;
+    domain_->analyze(frame, vertices_, x);
+    const CodingLayout& layout = domain_->layout();
+    double lo = -16, hi = 0;  // log2 of the step
+    Image image;
+    for (int i = 0; i < 12; ++i) {
+        const double mid = 0.5 * (lo + hi);
+        const float step = static_cast<float>(std::exp2(mid));
+        Planes y = x;
+        for (size_t c = 0; c < y.size(); ++c) {
+            for (size_t b = 0; b < layout.bands.size(); ++b) {
+                const float s = domain_->step(static_cast<int>(c), static_cast<int>(b), step);
+                for (int32_t k = layout.bands[b].begin; k < layout.bands[b].end; ++k) {
+                    float& v = y[c][layout.order[k]];
+                    const float m = std::floor(std::abs(v) / s);
+                    v = m == 0 ? 0.0f : std::copysign((m + 0.375f) * s, v);
+                }
+            }
+        }
+        domain_->synthesize(std::move(y), vertices_, image);
+        if (psnr(frame, image).all >= options_.quality) {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    return static_cast<float>(std::exp2(lo));
+}
+
+void VideoEncoder::start_group(int64_t number) {
+    group_.first_frame = number;
+    index_.group_offsets.push_back(written_);
+    index_.group_first.push_back(number);
+    write(twv_chunk('G', write_twv_group(group_)));
+}
+
+std::vector<uint8_t> VideoEncoder::code_frame(const Image& frame, TwvFrame& f, int64_t budget) {
+    domain_->analyze(frame, vertices_, residual_);
+    if (f.kind == TwvFrameKind::intra) coefficients_ = domain_->zeros();
+    for (size_t c = 0; c < residual_.size(); ++c) {
+        for (size_t i = 0; i < residual_[c].size(); ++i) residual_[c][i] -= coefficients_[c][i];
+    }
+    const IntPlanes q = quantize(*domain_, residual_, f.base_step);
+    f.planes = count_planes(domain_->layout(), const_spans(q));
+    BitplaneOptions bo{.shifts = std::vector<int>(domain_->layout().bands.size(), 0)};
+    if (budget >= 0) {
+        const int64_t overhead =
+            static_cast<int64_t>(twv_chunk('F', write_twv_frame(f, group_)).size());
+        bo.max_bytes = static_cast<size_t>(std::max<int64_t>(budget - overhead, 1));
+    }
+    bool empty = true;
+    for (const auto& channel : f.planes) {
+        for (uint8_t p : channel) empty = empty && p == 0;
+    }
+    if (!empty) f.stream = encode_bitplanes(domain_->layout(), const_spans(q), f.planes, bo);
+    add_decoded_residual(*domain_, f, coefficients_);
+    domain_->synthesize(coefficients_, vertices_, reconstruction_);
+    return twv_chunk('F', write_twv_frame(f, group_));
+}
+
+EncodedFrame VideoEncoder::encode(const Image& frame) {
+    if (finished_) throw Error("the encoder has finished");
+    if (frame.width != header_.width || frame.height != header_.height) {
+        throw Error(str("frame ", frames_, " is ", frame.width, "x", frame.height, ", the clip is ",
+                        header_.width, "x", header_.height));
+    }
+    EncodedFrame info;
+    info.number = frames_;
+    if (motion_) motion_->track(frame);
+    const Mesh* rest = mesh();
+    bool intra = frames_ == 0 || in_group_ >= options_.group;
+    std::vector<Vec2> v;
+    if (!intra && motion_) {
+        // The temporal term pulls towards constant velocity (no lag on steady motion) when that
+        // extrapolation is a valid mesh, else towards the last positions.
+        std::vector<Vec2> expected = vertices_;
+        if (in_group_ >= 2) {
+            Mesh ahead = *rest;
+            for (size_t i = 0; i < expected.size(); ++i) {
+                const Vec2 p = 2.0 * vertices_[i] - previous_[i];
+                ahead.vertices[i] = {std::clamp(p.x, 0.0, rest->width),
+                                     std::clamp(p.y, 0.0, rest->height)};
+            }
+            if (validate(ahead, {.max_problems = 1}).ok()) expected = std::move(ahead.vertices);
+        }
+        const MotionStep step = motion_->fit(expected);
+        info.tracks = step.tracks;
+        info.fit_rms = step.rms;
+        if (step.vertices) {
+            v = round_to_motion_unit(*step.vertices);
+            Mesh moved = *rest;
+            moved.vertices = v;
+            if (!validate(moved, {.max_problems = 1}).ok()) {
+                info.new_group = "the mesh is invalid at the file's 1/4-pixel precision";
+            }
+        } else {
+            info.new_group = step.failure;
+        }
+        intra = !info.new_group.empty();
+    }
+    // Groups start at the rest mesh.
+    if (intra || (rest && !motion_)) {
+        v = rest ? rest->vertices : std::vector<Vec2>{};
+    }
+    const uint64_t start = written_;
+    if (intra) start_group(frames_);
+    TwvFrame f;
+    f.number = frames_;
+    f.kind = intra ? TwvFrameKind::intra : TwvFrameKind::delta;
+    if (motion_) {
+        const bool two_back = !intra && in_group_ >= 2;
+        const std::vector<Vec2>& from = intra ? rest->vertices : vertices_;
+        if (v != from) {  // no bytes for a mesh that stays put
+            f.motion = encode_motion(
+                *rest, v, from,
+                two_back ? std::span<const Vec2>(previous_) : std::span<const Vec2>());
+        }
+        motion_->pin(v, intra);
+    }
+    previous_ = std::move(vertices_);
+    vertices_ = std::move(v);
+    if (intra && options_.quality > 0) base_step_ = calibrate_step(frame);
+    f.base_step = options_.kbps > 0 ? 1.0f / 1024 : base_step_;
+    int64_t budget = -1;
+    if (options_.kbps > 0) {
+        budget =
+            frame_budget(intra, start) - static_cast<int64_t>(written_ - start);  // less the group
+        const int64_t floor_bytes =
+            static_cast<int64_t>(twv_chunk('F', write_twv_frame(f, group_)).size()) + 8;
+        if (frames_ == 0 && budget < floor_bytes) {
+            throw Error(str(options_.kbps, " kbps leaves ", budget,
+                            " bytes for the first frame; it needs at least ", floor_bytes));
+        }
+    }
+    const std::vector<uint8_t> chunk = code_frame(frame, f, budget);
+    index_.frame_offsets.push_back(written_);
+    write(chunk);
+    info.kind = f.kind;
+    info.bytes = static_cast<int64_t>(written_ - start);
+    info.motion_bytes = static_cast<int64_t>(f.motion.size());
+    info.psnr = psnr(frame, reconstruction_).all;
+    in_group_ = intra ? 1 : in_group_ + 1;
+    ++frames_;
+    return info;
+}
+
+int64_t VideoEncoder::finish() {
+    if (finished_) throw Error("the encoder has finished");
+    if (frames_ == 0) throw Error(str(path_, ": no frames to write"));
+    const uint64_t index_offset = written_;
+    write(twv_chunk('I', write_twv_index(index_)));
+    write(twv_trailer(index_offset));
+    out_.close();
+    if (!out_) throw Error(str(path_, ": write failed"));
+    commit_temporary(temporary_, path_);
+    finished_ = true;
+    return static_cast<int64_t>(written_);
+}
+
+}  // namespace tesswave::video

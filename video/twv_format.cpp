@@ -1,0 +1,259 @@
+#include "twv_format.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "core/byte_io.h"
+#include "core/error.h"
+#include "core/fixed_grid.h"
+#include "core/strings.h"
+
+namespace tesswave::video {
+namespace {
+
+constexpr uint32_t kVersion = 1;
+
+void write_u64(ByteWriter& w, uint64_t v) {
+    for (int i = 0; i < 8; ++i) w.u8(static_cast<uint8_t>(v >> (8 * i)));
+}
+
+// Samples of T_J on a cols x rows grid: (cols 2^J + 1)(rows 2^J + 1), in double (no overflow for
+// any header values the reader lets through).
+double grid_samples(int cols, int rows, int levels) {
+    const double cell = std::ldexp(1.0, levels);
+    return (cols * cell + 1) * (rows * cell + 1);
+}
+
+}  // namespace
+
+std::vector<uint8_t> write_twv_header(const TwvHeader& h) {
+    ByteWriter w;
+    for (uint8_t b : kTwvMagic) w.u8(b);
+    w.u8(kVersion);
+    w.varint(h.width);
+    w.varint(h.height);
+    w.varint(h.fps_num);
+    w.varint(h.fps_den);
+    w.u8(h.channels);
+    w.u8(h.bit_depth);
+    w.u32(crc32(w.data()));
+    return std::move(w.data());
+}
+
+TwvHeader read_twv_header(std::span<const uint8_t> file, const std::string& name, size_t& used,
+                          const TwvLimits& limits) {
+    ByteReader r(file, name);
+    for (uint8_t b : kTwvMagic) {
+        if (r.remaining() == 0) r.fail("truncated: not even a file header");
+        if (r.u8("magic") != b) r.fail("not a .twv file (bad magic)");
+    }
+    if (r.u8("version") != kVersion) r.fail("unsupported .twv version");
+    TwvHeader h;
+    h.width = static_cast<int>(r.count("width", 1, 16384));
+    h.height = static_cast<int>(r.count("height", 1, 16384));
+    h.fps_num = static_cast<int>(r.count("fps numerator", 1, 1'000'000));
+    h.fps_den = static_cast<int>(r.count("fps denominator", 1, 1'000'000));
+    h.channels = static_cast<int>(r.u8("channels"));
+    h.bit_depth = static_cast<int>(r.u8("bit depth"));
+    const size_t covered = r.position();
+    const uint32_t crc = r.u32("header CRC");
+    if (crc != crc32(file.first(covered))) r.fail("damaged file header (CRC mismatch)");
+    if (h.channels != 1 && h.channels != 3) r.fail(str("unsupported channel count ", h.channels));
+    if (h.bit_depth != 8) r.fail(str("unsupported bit depth ", h.bit_depth));
+    if (int64_t{h.width} * h.height > limits.max_pixels) {
+        r.fail(str(h.width, "x", h.height, " pixels exceed the limit of ", limits.max_pixels));
+    }
+    if (h.fps() > 1000 || h.fps() < 1e-3) r.fail(str("frame rate ", h.fps(), " is out of range"));
+    used = r.position();
+    return h;
+}
+
+std::vector<uint8_t> twv_chunk(uint8_t tag, std::span<const uint8_t> payload) {
+    ByteWriter w;
+    w.u8(tag);
+    w.varint(payload.size());
+    w.bytes(payload);
+    w.u32(crc32(w.data()));
+    return std::move(w.data());
+}
+
+int twv_band_count(const TwvGroup& g, const TwvHeader& h) {
+    if (g.transform == TwiTransform::mesh) return 1 + 2 * g.levels;
+    return static_cast<int>(grid_bands(h.width, h.height, g.levels).size());
+}
+
+std::vector<uint8_t> write_twv_group(const TwvGroup& g) {
+    ByteWriter w;
+    w.varint(g.first_frame);
+    w.u8(static_cast<uint8_t>(g.transform));
+    w.u8(g.levels);
+    if (g.transform == TwiTransform::mesh) {
+        w.u8(static_cast<uint8_t>(g.motion));
+        w.varint(g.grid_cols);
+        w.varint(g.grid_rows);
+    }
+    for (float f : g.channel_factors) w.f32(f);
+    w.varint(g.band_norms.size());
+    for (float n : g.band_norms) w.f32(n);
+    return std::move(w.data());
+}
+
+TwvGroup read_twv_group(std::span<const uint8_t> payload, const TwvHeader& h,
+                        const std::string& what, const TwvLimits& limits) {
+    ByteReader r(payload, what);
+    TwvGroup g;
+    g.first_frame = r.count("first frame", 0, limits.max_frames - 1);
+    g.transform = static_cast<TwiTransform>(r.count("transform", 0, 2));
+    if (g.transform == TwiTransform::mesh) {
+        g.levels = static_cast<int>(r.count("levels", 0, 12));
+        g.motion = static_cast<TwvMotion>(r.count("motion", 0, 1));
+        g.grid_cols = static_cast<int>(r.count("grid columns", 1, h.width));
+        g.grid_rows = static_cast<int>(r.count("grid rows", 1, h.height));
+        const double samples = grid_samples(g.grid_cols, g.grid_rows, g.levels);
+        const double cap = limits.max_samples_per_pixel * h.width * h.height + (1 << 20);
+        if (samples > static_cast<double>(limits.max_samples) || samples > cap) {
+            r.fail(str("the mesh has ", samples, " samples at level ", g.levels, " (limit ",
+                       limits.max_samples, ", and ", limits.max_samples_per_pixel, " a pixel)"));
+        }
+    } else {
+        g.levels = static_cast<int>(r.count("levels", 0, 20));
+    }
+    for (int c = 0; c < h.channels; ++c) {
+        const float f = r.f32("step factor");
+        if (!(f > 0)) r.fail("step factors must be positive");
+        g.channel_factors.push_back(f);
+    }
+    const int bands = twv_band_count(g, h);
+    r.count("band count", bands, bands);
+    for (int b = 0; b < bands; ++b) {
+        const float n = r.f32("band norm");
+        if (!(n > 0)) r.fail("band norms must be positive");
+        g.band_norms.push_back(n);
+    }
+    if (r.remaining() != 0) r.fail(str(r.remaining(), " unexpected bytes after the group"));
+    return g;
+}
+
+std::vector<uint8_t> write_twv_frame(const TwvFrame& f, const TwvGroup& g) {
+    ByteWriter w;
+    w.varint(f.number);
+    w.u8(static_cast<uint8_t>(f.kind));
+    w.f32(f.base_step);
+    if (g.transform == TwiTransform::mesh && g.motion == TwvMotion::tracked) {
+        w.varint(f.motion.size());
+        w.bytes(f.motion);
+    }
+    // The largest plane count first: 0 (a frame with nothing to add) ends the payload there.
+    uint8_t top = 0;
+    for (const auto& channel : f.planes)
+        top = std::max(top, *std::max_element(channel.begin(), channel.end()));
+    w.u8(top);
+    if (top == 0) return std::move(w.data());
+    for (const auto& channel : f.planes) {
+        for (uint8_t p : channel) w.u8(p);
+    }
+    w.bytes(f.stream);
+    return std::move(w.data());
+}
+
+TwvFrame read_twv_frame(std::span<const uint8_t> payload, const TwvGroup& g, const TwvHeader& h,
+                        const std::string& what) {
+    ByteReader r(payload, what);
+    TwvFrame f;
+    f.number = static_cast<int64_t>(r.varint("frame number"));
+    f.kind = static_cast<TwvFrameKind>(r.count("frame kind", 0, 1));
+    f.base_step = r.f32("base step");
+    if (!(f.base_step > 0)) r.fail("the base step must be positive");
+    if (g.transform == TwiTransform::mesh && g.motion == TwvMotion::tracked) {
+        const int64_t n = r.count("motion bytes", 0, static_cast<int64_t>(r.remaining()));
+        const auto bytes = r.bytes(static_cast<size_t>(n), "motion");
+        f.motion.assign(bytes.begin(), bytes.end());
+    }
+    const int bands = static_cast<int>(g.band_norms.size());
+    f.planes.assign(h.channels, std::vector<uint8_t>(bands, 0));
+    const auto top = r.count("largest bit-plane count", 0, 31);
+    if (top == 0) {
+        if (r.remaining() != 0) r.fail("unexpected bytes after an empty frame");
+        return f;
+    }
+    uint32_t largest = 0;
+    for (auto& channel : f.planes) {
+        for (uint8_t& p : channel) {
+            p = static_cast<uint8_t>(r.u8("bit-planes"));
+            if (p > top) r.fail("a band has more bit-planes than the frame's largest");
+            largest = std::max<uint32_t>(largest, p);
+        }
+    }
+    if (largest != top) r.fail("no band has the frame's largest bit-plane count");
+    const auto rest = r.bytes(r.remaining(), "stream");
+    f.stream.assign(rest.begin(), rest.end());
+    return f;
+}
+
+std::vector<uint8_t> write_twv_index(const TwvIndex& index) {
+    ByteWriter w;
+    w.varint(index.frame_offsets.size());
+    w.varint(index.group_offsets.size());
+    uint64_t previous = 0;
+    for (size_t i = 0; i < index.group_offsets.size(); ++i) {
+        w.varint(index.group_offsets[i] - previous);
+        w.varint(index.group_first[i]);
+        previous = index.group_offsets[i];
+    }
+    previous = 0;
+    for (uint64_t offset : index.frame_offsets) {
+        w.varint(offset - previous);
+        previous = offset;
+    }
+    return std::move(w.data());
+}
+
+TwvIndex read_twv_index(std::span<const uint8_t> payload, uint64_t file_size,
+                        const std::string& what, const TwvLimits& limits) {
+    ByteReader r(payload, what);
+    // Every entry takes at least one byte, so counts beyond the payload are refused up front.
+    const int64_t room = static_cast<int64_t>(payload.size());
+    const int64_t frames = r.count("frame count", 1, std::min(limits.max_frames, room));
+    const int64_t groups = r.count("group count", 1, std::min(frames, room));
+    TwvIndex index;
+    uint64_t offset = 0;
+    int64_t first = -1;
+    for (int64_t i = 0; i < groups; ++i) {
+        const auto delta = r.varint("group offset");
+        if (delta == 0 && i > 0) r.fail("group offsets must increase");
+        if (delta >= file_size - offset) r.fail("group offset past the end of the file");
+        offset += delta;
+        const int64_t f = r.count("group first frame", first + 1, frames - 1);
+        if (i == 0 && f != 0) r.fail("the first group must start at frame 0");
+        first = f;
+        index.group_offsets.push_back(offset);
+        index.group_first.push_back(f);
+    }
+    offset = 0;
+    for (int64_t i = 0; i < frames; ++i) {
+        const auto delta = r.varint("frame offset");
+        if (delta == 0) r.fail("frame offsets must increase");
+        if (delta >= file_size - offset) r.fail("frame offset past the end of the file");
+        offset += delta;
+        index.frame_offsets.push_back(offset);
+    }
+    // Each group chunk lies before its first frame's chunk and after the previous group's frames.
+    for (size_t i = 0; i < index.group_offsets.size(); ++i) {
+        const size_t f = static_cast<size_t>(index.group_first[i]);
+        if (index.group_offsets[i] >= index.frame_offsets[f] ||
+            (f > 0 && index.group_offsets[i] <= index.frame_offsets[f - 1])) {
+            r.fail(str("group ", i, " is not where its first frame says"));
+        }
+    }
+    if (r.remaining() != 0) r.fail(str(r.remaining(), " unexpected bytes after the index"));
+    return index;
+}
+
+std::vector<uint8_t> twv_trailer(uint64_t index_offset) {
+    ByteWriter w;
+    write_u64(w, index_offset);
+    for (uint8_t b : kTwvTrailerMagic) w.u8(b);
+    return std::move(w.data());
+}
+
+}  // namespace tesswave::video

@@ -1,0 +1,109 @@
+// The .twv clip file (DESIGN.md 4): a file header, then chunks, each protected by a CRC-32, then
+// an index for seeking. A group chunk names the coding domain (mesh topology or fixed grid, levels,
+// band norms) and is followed by the group's frame chunks: an intra frame, then deltas.
+//
+//   file header: magic "TWV" 0x1A | version u8 | width, height varint | fps numerator,
+//     denominator varint | channels u8 (1 or 3) | bit depth u8 (8) | CRC-32 u32 of the above
+//   chunk: tag u8 | payload size varint | payload | CRC-32 u32 of tag, size and payload
+//   'G' group: first frame varint | transform u8 (0 mesh, 1 grid 5/3, 2 grid 9/7) | levels u8 |
+//     mesh path: motion u8 (0 static, 1 tracked) | grid columns, rows varint (the T0 mesh is
+//     the grid on [0,W]x[0,H]) | per channel: step factor f32 | band count varint | per band:
+//     norm f32
+//   'F' frame: frame number varint | kind u8 (0 intra, 1 delta) | base step f32 | tracked mesh
+//     path: motion bytes varint (0: the mesh stays where it was, at rest for an intra frame),
+//     then that many bytes of range-coded vertex motion |
+//     largest bit-plane count u8, and unless it is 0 (nothing to add: the payload ends): per
+//     channel and band, bit-planes u8 | the embedded bit-plane stream (rest of the payload)
+//   'I' index: frame count varint | group count varint | per group: chunk offset (delta from the
+//     previous group's, varint) and first frame varint | per frame: chunk offset (delta from the
+//     previous frame's, varint)
+//   trailer: offset of the index chunk u64 (little-endian) | "TWVE"
+//
+// A file cut anywhere decodes up to its last whole frame chunk (readers scan when the trailer is
+// missing).
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "core/bitplane.h"
+#include "core/twi_format.h"
+
+namespace tesswave::video {
+
+inline constexpr uint8_t kTwvMagic[4] = {'T', 'W', 'V', 0x1A};
+inline constexpr uint8_t kTwvTrailerMagic[4] = {'T', 'W', 'V', 'E'};
+inline constexpr int kTwvTrailerBytes = 12;
+
+struct TwvHeader {
+    int width = 0, height = 0;
+    int fps_num = 25, fps_den = 1;
+    int channels = 3, bit_depth = 8;
+    double fps() const { return static_cast<double>(fps_num) / fps_den; }
+};
+
+enum class TwvMotion : uint8_t { none = 0, tracked = 1 };
+
+struct TwvGroup {
+    int64_t first_frame = 0;
+    TwiTransform transform = TwiTransform::mesh;
+    int levels = 0;
+    TwvMotion motion = TwvMotion::none;       // mesh path
+    int grid_cols = 0, grid_rows = 0;         // mesh path: T0 is grid_mesh(W, H, cols, rows)
+    std::vector<float> channel_factors = {};  // per channel
+    std::vector<float> band_norms = {};       // per band of the coding layout
+};
+
+enum class TwvFrameKind : uint8_t { intra = 0, delta = 1 };
+
+struct TwvFrame {
+    int64_t number = 0;
+    TwvFrameKind kind = TwvFrameKind::intra;
+    float base_step = 1.0f;
+    std::vector<uint8_t> motion = {};  // range-coded vertex motion (tracked mesh path)
+    PlaneCounts planes = {};           // [channel][band]
+    std::vector<uint8_t> stream = {};  // bit-planes
+};
+
+struct TwvIndex {
+    std::vector<uint64_t> group_offsets;  // file offset of each group chunk
+    std::vector<int64_t> group_first;     // first frame of each group
+    std::vector<uint64_t> frame_offsets;  // file offset of each frame chunk
+};
+
+struct TwvLimits {
+    int64_t max_pixels = int64_t{1} << 26;
+    int64_t max_samples = 50'000'000;     // mesh samples of T_J
+    double max_samples_per_pixel = 20;    // and at most this many a pixel (plus 2^20)
+    int64_t max_chunk_bytes = 256 << 20;  // a chunk's payload
+    int64_t max_frames = 100'000'000;
+};
+
+std::vector<uint8_t> write_twv_header(const TwvHeader& header);
+// `file` holds at least the header; `name` prefixes messages. Returns the header's size in `used`.
+TwvHeader read_twv_header(std::span<const uint8_t> file, const std::string& name, size_t& used,
+                          const TwvLimits& limits = {});
+
+// A whole chunk (tag, size, payload, CRC).
+std::vector<uint8_t> twv_chunk(uint8_t tag, std::span<const uint8_t> payload);
+
+std::vector<uint8_t> write_twv_group(const TwvGroup& group);
+// Checks the group against the clip (sizes, band counts, the limits); `what` prefixes messages.
+TwvGroup read_twv_group(std::span<const uint8_t> payload, const TwvHeader& header,
+                        const std::string& what, const TwvLimits& limits = {});
+// The number of bands the group's coding layout has.
+int twv_band_count(const TwvGroup& group, const TwvHeader& header);
+
+std::vector<uint8_t> write_twv_frame(const TwvFrame& frame, const TwvGroup& group);
+TwvFrame read_twv_frame(std::span<const uint8_t> payload, const TwvGroup& group,
+                        const TwvHeader& header, const std::string& what);
+
+std::vector<uint8_t> write_twv_index(const TwvIndex& index);
+// Offsets must increase and lie before `file_size`; frames must be in their groups' order.
+TwvIndex read_twv_index(std::span<const uint8_t> payload, uint64_t file_size,
+                        const std::string& what, const TwvLimits& limits = {});
+std::vector<uint8_t> twv_trailer(uint64_t index_offset);
+
+}  // namespace tesswave::video
