@@ -112,7 +112,7 @@ void run_encode(const EncodeArgs& a) {
             throw Error(str(a.input, ": frame ", n, ": ", e.what()));
         }
         if (!a.debug_dir.empty()) write_debug_frame(a.debug_dir, n, frame, *encoder);
-        psnr_sum += f.psnr;
+        psnr_sum += std::min(f.psnr, 100.0);  // identical frames count as 100 dB, as x264 does
         groups += f.kind == video::TwvFrameKind::intra;
         frames.push_back({{"frame", f.number},
                           {"kind", f.kind == video::TwvFrameKind::intra ? "intra" : "delta"},
@@ -261,7 +261,7 @@ std::vector<std::string> video_demo(const std::string& clip, const std::string& 
         while (source.read(frame)) {
             const video::EncodedFrame f = encoder.encode(frame);
             if (k == 0 && n % 10 == 0 && n <= 20) write_debug_frame(mesh_dir, n, frame, encoder);
-            psnr[k] += f.psnr;
+            psnr[k] += std::min(f.psnr, 100.0);
             groups += f.kind == video::TwvFrameKind::intra;
             ++n;
         }

@@ -80,8 +80,10 @@ TEST(VideoCodec, DecoderOutputEqualsEncoderReconstructionInEveryMode) {
         TwiTransform transform;
         TwvMotion motion;
         double kbps, quality;
+        int motion_level = 0;
     };
     const Mode modes[] = {{TwiTransform::mesh, TwvMotion::tracked, 200, 0},
+                          {TwiTransform::mesh, TwvMotion::tracked, 200, 0, 1},
                           {TwiTransform::mesh, TwvMotion::tracked, 0, 34},
                           {TwiTransform::mesh, TwvMotion::none, 200, 0},
                           {TwiTransform::grid53, TwvMotion::none, 200, 0},
@@ -91,6 +93,7 @@ TEST(VideoCodec, DecoderOutputEqualsEncoderReconstructionInEveryMode) {
         const Coded coded = encode(frames, path,
                                    {.transform = m.transform,
                                     .motion = m.motion,
+                                    .motion_level = m.motion_level,
                                     .group = 4,
                                     .kbps = m.kbps,
                                     .quality = m.quality});
@@ -207,6 +210,36 @@ TEST(VideoCodec, SeekingDecodesTheSameFramesAsReadingThrough) {
         EXPECT_EQ(decoder.damage(), "");
         EXPECT_FALSE(decoder.seek(all.size()));
     }
+    fs::remove(path);
+}
+
+}  // namespace
+}  // namespace tesswave::video
+
+namespace tesswave::video {
+namespace {
+
+TEST(VideoCodec, ACutStartsANewGroupAndFlatFramesHoldTheMesh) {
+    const samples::SampleClipOptions a{.width = 96, .height = 64, .frames = 4};
+    samples::SampleClipOptions b = a;
+    b.seed = 2;
+    b.pan = {-1, 0.25};
+    std::vector<Image> frames = clip(a);
+    for (const Image& f : clip(b)) frames.push_back(f);
+    Image flat = make_image(96, 64, 3);
+    for (auto& plane : flat.planes) std::fill(plane.begin(), plane.end(), 0.5f);
+    for (int i = 0; i < 4; ++i) frames.push_back(flat);
+    const std::string path = temp_path("cut.twv");
+    const Coded coded = encode(frames, path, {.kbps = 300});
+    for (size_t t = 0; t < frames.size(); ++t) {
+        SCOPED_TRACE(t);
+        const bool cut = t == 4 || t == 8;  // into the second scene, into the flat frames
+        EXPECT_EQ(coded.frames[t].kind, t == 0 || cut ? TwvFrameKind::intra : TwvFrameKind::delta);
+        if (cut) {
+            EXPECT_NE(coded.frames[t].new_group.find("a cut"), std::string::npos);
+        }
+    }
+    for (size_t t = 9; t < frames.size(); ++t) EXPECT_EQ(coded.vertices[t], coded.vertices[8]);
     fs::remove(path);
 }
 

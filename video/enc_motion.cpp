@@ -10,7 +10,12 @@ namespace tesswave::video {
 MeshMotion::MeshMotion(const Mesh& rest, const MeshMotionOptions& options)
     : rest_(rest), options_(options), tracker_(options.tracker) {}
 
-void MeshMotion::track(const Image& frame) { tracks_ = &tracker_.next(frame); }
+void MeshMotion::track(const Image& frame) {
+    last_live_ = tracks_ ? tracks_->size() : 0;
+    tracks_ = &tracker_.next(frame);
+    carried_ = static_cast<size_t>(
+        std::count_if(tracks_->begin(), tracks_->end(), [](const Track& t) { return !t.born; }));
+}
 
 MotionStep MeshMotion::fit(std::span<const Vec2> previous) const {
     MotionStep step;
@@ -23,8 +28,14 @@ MotionStep MeshMotion::fit(std::span<const Vec2> previous) const {
         b.push_back(t.position);
     }
     step.tracks = static_cast<int>(a.size());
+    const double threshold = options_.min_carried * static_cast<double>(last_live_);
+    if (last_live_ >= 8 &&  // a handful, so that a few lost tracks on flat content are no cut
+        static_cast<double>(carried_) < threshold) {
+        step.failure = str("a cut: ", carried_, " of ", last_live_, " tracks carried over");
+        return step;
+    }
     if (step.tracks < options_.min_tracks) {
-        step.failure = str(step.tracks, " tracks left (need ", options_.min_tracks, ")");
+        step.hold = true;
         return step;
     }
     MeshFitOptions o;

@@ -1,8 +1,8 @@
 // The encoder's mesh motion (DESIGN.md 4): KLT tracks pinned to parametric locations (face, quad,
 // u, v) of the group's mesh, and per frame a Ceres fit of the T0 vertex positions that carries
 // every pinned point to its tracked position, regularized towards the rest mesh (as-similar),
-// smoothness and the previous frame's positions (temporal). A frame whose tracks or fit fail
-// asks for a new group instead of a broken mesh.
+// smoothness and the expected positions (temporal). A cut (most tracks lost at once) or a failed
+// fit asks for a new group instead of a broken mesh; content too flat to track holds the mesh.
 #pragma once
 
 #include <cstdint>
@@ -23,16 +23,18 @@ struct MeshMotionOptions {
     double rigidity_weight = 0.1;
     double smoothness_weight = 0.1;
     double temporal_weight = 0.01;
-    int min_tracks = 12;           // fewer pinned tracks surviving: new group
-    double max_median = 1.0;       // px; a fit whose median residual is worse: new group
+    int min_tracks = 12;        // fewer pinned tracks: the mesh holds still (flat content)
+    double min_carried = 0.25;  // fewer of the last frame's tracks carried over: a cut, new group
+    double max_median = 2.0;    // px; a fit whose median residual is worse: new group
     double min_area_ratio = 0.25;  // a face shrinking below this part of its rest area: new group
 };
 
 struct MotionStep {
     std::optional<std::vector<Vec2>> vertices;  // the fitted T0 positions, or none
-    std::string failure;                        // why not, when none
-    int tracks = 0;                             // pinned tracks used
-    double rms = 0;                             // of the fit's inliers, px
+    bool hold = false;    // none because too few tracks: keep the last positions
+    std::string failure;  // else why none: the group must restart
+    int tracks = 0;       // pinned tracks used
+    double rms = 0;       // of the fit's inliers, px
 };
 
 class MeshMotion {
@@ -55,6 +57,7 @@ class MeshMotion {
     MeshMotionOptions options_;
     Tracker tracker_;
     const std::vector<Track>* tracks_ = nullptr;
+    size_t last_live_ = 0, carried_ = 0;  // tracks alive in the frame before, carried from it
     std::unordered_map<int64_t, Vec2> rest_point_;  // per pinned track: its rest position
 };
 

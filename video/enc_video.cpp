@@ -255,7 +255,9 @@ EncodedFrame VideoEncoder::encode(const Image& frame) {
         const MotionStep step = motion_->fit(expected);
         info.tracks = step.tracks;
         info.fit_rms = step.rms;
-        if (step.vertices) {
+        if (step.hold) {
+            v = vertices_;
+        } else if (step.vertices) {
             v = round_to_motion_unit(*step.vertices);
             Mesh moved = *rest;
             moved.vertices = v;

@@ -49,7 +49,7 @@ struct Track {
 
 // What happened to the tracks in the last call of next().
 struct TrackerStats {
-    int tracked = 0;      // tracks carried over from the previous frame
+    int tracked = 0;      // tracks followed from the previous frame (before the checks below)
     int lost_flow = 0;    // LK failed to converge (forward or backward)
     int lost_border = 0;  // left the frame
     int lost_fb = 0;      // failed the forward-backward check
