@@ -80,6 +80,7 @@ void add_analyze_command(CLI::App& app);
 void add_samples_command(CLI::App& app);
 void add_codec_commands(CLI::App& app);
 void add_compare_command(CLI::App& app);
+void add_compare_video_command(CLI::App& app);
 void add_morph_commands(CLI::App& app);
 void add_eval_interp_command(CLI::App& app);
 void add_video_commands(CLI::App& app);

@@ -38,6 +38,7 @@ int main(int argc, char** argv) {
     tesswave::cli::add_analyze_command(app);
     tesswave::cli::add_codec_commands(app);
     tesswave::cli::add_compare_command(app);
+    tesswave::cli::add_compare_video_command(app);
     tesswave::cli::add_morph_commands(app);
     tesswave::cli::add_eval_interp_command(app);
     tesswave::cli::add_video_commands(app);
