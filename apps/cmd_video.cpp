@@ -113,6 +113,13 @@ void run_encode(const EncodeArgs& a) {
         }
         if (!a.debug_dir.empty()) write_debug_frame(a.debug_dir, n, frame, *encoder);
         psnr_sum += std::min(f.psnr, 100.0);  // identical frames count as 100 dB, as x264 does
+        if (o.quality > 0 && f.kind == video::TwvFrameKind::intra && f.quality_target < o.quality &&
+            !a.json) {
+            std::fprintf(stderr,
+                         "warning: %s: frame %lld: %.2f dB is out of reach on this mesh (its "
+                         "resampling caps it); coding for %.2f dB\n",
+                         a.input.c_str(), static_cast<long long>(n), o.quality, f.quality_target);
+        }
         groups += f.kind == video::TwvFrameKind::intra;
         frames.push_back({{"frame", f.number},
                           {"kind", f.kind == video::TwvFrameKind::intra ? "intra" : "delta"},
@@ -121,7 +128,8 @@ void run_encode(const EncodeArgs& a) {
                           {"psnr", f.psnr},
                           {"tracks", f.tracks},
                           {"fit_rms", f.fit_rms},
-                          {"new_group", f.new_group}});
+                          {"new_group", f.new_group},
+                          {"quality_target", f.quality_target}});
         ++n;
         if (total > 0) bar.update(static_cast<double>(n) / total, str("frame ", n).c_str());
     }

@@ -245,3 +245,27 @@ TEST(VideoCodec, ACutStartsANewGroupAndFlatFramesHoldTheMesh) {
 
 }  // namespace
 }  // namespace tesswave::video
+
+namespace tesswave::video {
+namespace {
+
+TEST(VideoCodec, QualityTargetsMetOrLoweredToTheMeshCeiling) {
+    const std::vector<Image> frames = clip(small_pan());
+    const std::string path = temp_path("quality.twv");
+    const Coded reachable = encode(frames, path, {.quality = 30});
+    EXPECT_EQ(reachable.frames[0].quality_target, 30);
+    EXPECT_GE(reachable.frames[0].psnr, 30);
+    EXPECT_LT(reachable.frames[0].psnr, 31);
+    // 60 dB is beyond what sampling on the mesh and rendering back keeps: the target drops to
+    // just below that ceiling instead of driving the step (and the rate) to the limit.
+    const Coded capped = encode(frames, path, {.quality = 60});
+    EXPECT_LT(capped.frames[0].quality_target, 50);
+    EXPECT_NEAR(capped.frames[0].psnr, capped.frames[0].quality_target, 0.3);
+    const Coded grid = encode(frames, path, {.transform = TwiTransform::grid53, .quality = 60});
+    EXPECT_EQ(grid.frames[0].quality_target, 60);  // the grid reaches it
+    EXPECT_GE(grid.frames[0].psnr, 60);
+    fs::remove(path);
+}
+
+}  // namespace
+}  // namespace tesswave::video

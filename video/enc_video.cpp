@@ -165,16 +165,16 @@ int64_t VideoEncoder::frame_budget(bool intra, uint64_t spent) const {
 }
 
 // The base step whose intra image reaches the target PSNR: bisection on log2 of the step, each
-// probe quantized and dequantized directly (what a fully decoded intra frame holds).
+// probe quantized and dequantized directly (what a fully decoded intra frame holds). A target
+// above what the finest step reaches (the mesh's resampling caps the quality) is lowered to
+// 0.25 dB below that ceiling, so that the rate stays finite; quality_target_ says which was used.
 float VideoEncoder::calibrate_step(const Image& frame) {
     Planes x;
     domain_->analyze(frame, vertices_, x);
     const CodingLayout& layout = domain_->layout();
-    double lo = -16, hi = 0;  // log2 of the step
     Image image;
-    for (int i = 0; i < 12; ++i) {
-        const double mid = 0.5 * (lo + hi);
-        const float step = static_cast<float>(std::exp2(mid));
+    const auto psnr_at = [&](double log_step) {
+        const float step = static_cast<float>(std::exp2(log_step));
         Planes y = x;
         for (size_t c = 0; c < y.size(); ++c) {
             for (size_t b = 0; b < layout.bands.size(); ++b) {
@@ -187,11 +187,14 @@ float VideoEncoder::calibrate_step(const Image& frame) {
             }
         }
         domain_->synthesize(std::move(y), vertices_, image);
-        if (psnr(frame, image).all >= options_.quality) {
-            lo = mid;
-        } else {
-            hi = mid;
-        }
+        return psnr(frame, image).all;
+    };
+    double lo = -14, hi = 0;  // log2 of the step
+    const double ceiling = psnr_at(lo);
+    quality_target_ = std::min(options_.quality, ceiling - 0.25);
+    for (int i = 0; i < 11; ++i) {
+        const double mid = 0.5 * (lo + hi);
+        (psnr_at(mid) >= quality_target_ ? lo : hi) = mid;
     }
     return static_cast<float>(std::exp2(lo));
 }
@@ -310,6 +313,7 @@ EncodedFrame VideoEncoder::encode(const Image& frame) {
     info.bytes = static_cast<int64_t>(written_ - start);
     info.motion_bytes = static_cast<int64_t>(f.motion.size());
     info.psnr = psnr(frame, reconstruction_).all;
+    info.quality_target = options_.quality > 0 ? quality_target_ : 0;
     in_group_ = intra ? 1 : in_group_ + 1;
     ++frames_;
     return info;

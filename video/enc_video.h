@@ -42,12 +42,13 @@ struct VideoEncodeOptions {
 struct EncodedFrame {
     int64_t number = 0;
     TwvFrameKind kind = TwvFrameKind::intra;
-    int64_t bytes = 0;         // everything written for it (group chunk included)
-    int64_t motion_bytes = 0;  // vertex motion
-    double psnr = 0;           // of reconstruction() against the input
-    int tracks = 0;            // pinned tracks in the fit (tracked mesh)
-    double fit_rms = 0;        // px
-    std::string new_group;     // why this frame starts a group early (empty: it does not)
+    int64_t bytes = 0;          // everything written for it (group chunk included)
+    int64_t motion_bytes = 0;   // vertex motion
+    double psnr = 0;            // of reconstruction() against the input
+    int tracks = 0;             // pinned tracks in the fit (tracked mesh)
+    double fit_rms = 0;         // px
+    std::string new_group;      // why this frame starts a group early (empty: it does not)
+    double quality_target = 0;  // --quality: the group's target, lowered where it is out of reach
 };
 
 class VideoEncoder {
@@ -92,6 +93,7 @@ class VideoEncoder {
     uint64_t written_ = 0;
     int64_t frames_ = 0, in_group_ = 0;
     float base_step_ = 1.0f / 1024;
+    double quality_target_ = 0;
     Planes coefficients_, residual_;
     std::vector<Vec2> vertices_, previous_;
     Image reconstruction_;
