@@ -131,6 +131,10 @@ Mesh read_mesh_for(const std::string& mesh_path, const std::string& image_path, 
     return mesh;
 }
 
+const char* transform_name(TwiTransform t) {
+    return t == TwiTransform::mesh ? "mesh" : t == TwiTransform::grid53 ? "grid 5/3" : "grid 9/7";
+}
+
 CLI::Validator positive(const std::string& what) {
     return CLI::Validator(
         [what](std::string& text) {

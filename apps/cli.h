@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "core/analysis.h"
+#include "core/twi_format.h"
 
 namespace tesswave::cli {
 
@@ -14,6 +15,9 @@ namespace tesswave::cli {
 // output that is also an input.
 void check_output(const std::string& path, bool overwrite,
                   const std::vector<std::string>& inputs = {});
+
+// "mesh", "grid 5/3" or "grid 9/7", as reports print a transform.
+const char* transform_name(TwiTransform t);
 
 // Checks an output folder without creating it (call before any work, create when writing).
 void check_folder(const std::string& dir, bool overwrite);

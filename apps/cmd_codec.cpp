@@ -14,10 +14,6 @@
 namespace tesswave::cli {
 namespace {
 
-const char* transform_name(TwiTransform t) {
-    return t == TwiTransform::mesh ? "mesh" : t == TwiTransform::grid53 ? "grid 5/3" : "grid 9/7";
-}
-
 TwiTransform parse_grid(const std::string& grid) {
     if (grid.empty()) return TwiTransform::mesh;
     return grid == "97" ? TwiTransform::grid97 : TwiTransform::grid53;

@@ -15,10 +15,6 @@
 namespace tesswave::cli {
 namespace {
 
-const char* transform_name(TwiTransform t) {
-    return t == TwiTransform::mesh ? "mesh" : t == TwiTransform::grid53 ? "grid 5/3" : "grid 9/7";
-}
-
 nlohmann::json twi_info(const std::string& path) {
     const std::string bytes = read_file(path);
     const std::span<const uint8_t> file(reinterpret_cast<const uint8_t*>(bytes.data()),

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <bit>
+#include <cmath>
 #include <cstdlib>
 #include <type_traits>
 
@@ -337,6 +338,19 @@ DecodedPlanes decode_bitplanes(const CodingLayout& layout, const PlaneCounts& pl
     DecodeSide side(stream);
     out.complete = Traversal<DecodeSide>(layout, planes, options, out.value, out.known, side).run();
     return out;
+}
+
+void quantize(const CodingLayout& layout, std::span<const float> x,
+              std::span<const float> band_steps, std::span<int32_t> out) {
+    for (size_t b = 0; b < layout.bands.size(); ++b) {
+        const float inv = 1.0f / band_steps[b];
+        for (int32_t k = layout.bands[b].begin; k < layout.bands[b].end; ++k) {
+            const int32_t id = layout.order[k];
+            const float m = std::floor(std::abs(x[id]) * inv);
+            if (!(m < 1e9f)) throw Error("quantizer step too small for these values");
+            out[id] = x[id] < 0 ? -static_cast<int32_t>(m) : static_cast<int32_t>(m);
+        }
+    }
 }
 
 void dequantize(const CodingLayout& layout, const DecodedPlanes& decoded, int channel,

@@ -45,6 +45,12 @@ struct DecodedPlanes {
 DecodedPlanes decode_bitplanes(const CodingLayout& layout, const PlaneCounts& planes,
                                std::span<const uint8_t> stream, const BitplaneOptions& options);
 
+// Dead-zone quantization of one channel: sign floor(|x| / s) per coefficient, with s the step of
+// its band (computed as |x| times 1/s in float). Throws Error when a magnitude reaches 1e9 (a
+// step far too small for the values).
+void quantize(const CodingLayout& layout, std::span<const float> x,
+              std::span<const float> band_steps, std::span<int32_t> out);
+
 // Coefficient c of a band with step s: 0 when its known magnitude m is 0, else
 // sign (m + 3/8 2^k) s with k the lowest known plane, or exactly sign m s when k = 0 and `exact`.
 void dequantize(const CodingLayout& layout, const DecodedPlanes& decoded, int channel,

@@ -30,17 +30,11 @@ void progress(const StillOptions& o, double done, const char* stage) {
     if (o.progress) o.progress(done, stage);
 }
 
-// J of a grid mesh: the shorter side gets 8 to 16 T0 cells (J from 1 to 7).
-int default_levels(int width, int height, double density) {
-    const double samples = std::min(width, height) * std::sqrt(density);
-    return std::clamp(static_cast<int>(std::floor(std::log2(samples))) - 3, 1, 7);
-}
-
 // The T0 mesh and J of the mesh path.
 void choose_mesh(const Image& image, const StillOptions& o, TwiHeader& h) {
     const int W = image.width, H = image.height;
     if (o.aligned) {
-        h.levels = o.levels > 0 ? o.levels : default_levels(W, H, 1.0);
+        h.levels = o.levels > 0 ? o.levels : default_mesh_levels(W, H, 1.0);
         h.placement = MeshPlacement::centres;
         h.grid_cols = aligned_cells(W, h.levels);
         h.grid_rows = aligned_cells(H, h.levels);
@@ -63,7 +57,7 @@ void choose_mesh(const Image& image, const StillOptions& o, TwiHeader& h) {
         h.levels = o.levels > 0 ? o.levels : level_for_density(h.mesh, W * H, o.density);
         return;
     }
-    h.levels = o.levels > 0 ? o.levels : default_levels(W, H, o.density);
+    h.levels = o.levels > 0 ? o.levels : default_mesh_levels(W, H, o.density);
     const double cell = std::ldexp(1.0, h.levels) / root;  // pixels per T0 cell side
     h.grid_cols = std::max(1, static_cast<int>(std::lround(W / cell)));
     h.grid_rows = std::max(1, static_cast<int>(std::lround(H / cell)));
@@ -154,6 +148,11 @@ double image_psnr(const Image& a, const Image& b, int bit_depth) {
 
 }  // namespace
 
+int default_mesh_levels(int width, int height, double density) {
+    const double samples = std::min(width, height) * std::sqrt(density);
+    return std::clamp(static_cast<int>(std::floor(std::log2(samples))) - 3, 1, 7);
+}
+
 StillResult compress_image(const Image& image, const StillOptions& o) {
     if (o.max_bytes < 0) throw Error(str("byte budget ", o.max_bytes, " is negative"));
     StillResult result;
@@ -176,16 +175,10 @@ StillResult compress_image(const Image& image, const StillOptions& o) {
         const Planes x = domain.analyze(image);
         h.shifts.assign(layout.bands.size(), 0);
         q.assign(h.channels, std::vector<int32_t>(layout.size, 0));
+        std::vector<float> steps(layout.bands.size());
         for (int c = 0; c < h.channels; ++c) {
-            for (size_t b = 0; b < layout.bands.size(); ++b) {
-                const float inv = 1.0f / h.step(c, static_cast<int>(b));
-                for (int32_t k = layout.bands[b].begin; k < layout.bands[b].end; ++k) {
-                    const int32_t id = layout.order[k];
-                    const float m = std::floor(std::abs(x[c][id]) * inv);
-                    if (!(m < 1e9f)) throw Error("quantizer step too small for this image");
-                    q[c][id] = x[c][id] < 0 ? -static_cast<int32_t>(m) : static_cast<int32_t>(m);
-                }
-            }
+            for (size_t b = 0; b < steps.size(); ++b) steps[b] = h.step(c, static_cast<int>(b));
+            quantize(layout, x[c], steps, q[c]);
         }
     }
     h.planes = count_planes(layout, const_spans(q));

@@ -44,6 +44,10 @@ struct StillResult {
     double psnr = 0;  // of the decoded file against the input (NaN when not measured)
 };
 
+// J of a grid mesh over a width x height image at `density` samples a pixel: the shorter side
+// gets 8 to 16 T0 cells (J from 1 to 7). The still and video codecs' default.
+int default_mesh_levels(int width, int height, double density);
+
 // Throws Error for images or options the codec cannot take (with the reason).
 StillResult compress_image(const Image& image, const StillOptions& options);
 

@@ -11,6 +11,7 @@
 #include <utility>
 
 #include "core/error.h"
+#include "core/opencv_image.h"
 #include "core/strings.h"
 
 namespace tesswave::morph {
@@ -48,21 +49,6 @@ void check_inputs(const Image& a, const Image& b, const AutoMatchOptions& o) {
                         " >= 1, min_texture ", o.min_texture, " >= 0, min_similarity ",
                         o.min_similarity, " <= 1)"));
     }
-}
-
-// BT.601 luma of the first three planes (or plane 0 of grey), rounded to 8 bits for OpenCV.
-cv::Mat grey8(const Image& image) {
-    cv::Mat out(image.height, image.width, CV_8UC1);
-    const size_t n = static_cast<size_t>(image.width) * image.height;
-    for (size_t i = 0; i < n; ++i) {
-        double v = image.planes[0][i];
-        if (image.channels() >= 3) {
-            v = 0.299 * v + 0.587 * image.planes[1][i] + 0.114 * image.planes[2][i];
-        }
-        v = v > 0 ? std::min(v, 1.0) : 0.0;  // NaN goes to 0
-        out.data[i] = static_cast<uint8_t>(std::lround(v * 255));
-    }
-    return out;
 }
 
 struct Candidates {

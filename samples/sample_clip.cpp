@@ -6,6 +6,7 @@
 
 #include "core/error.h"
 #include "core/strings.h"
+#include "value_noise.h"
 
 namespace tesswave::samples {
 namespace {
@@ -15,26 +16,8 @@ constexpr double kObjectPeriod = 96;  // frames per turn of the object's ellipse
 
 using Rgb = std::array<double, 3>;
 
-double hash01(int64_t x, int64_t y, uint64_t seed) {
-    uint64_t h = seed * 0x9E3779B97F4A7C15ull ^ static_cast<uint64_t>(x) * 0xBF58476D1CE4E5B9ull ^
-                 static_cast<uint64_t>(y) * 0x94D049BB133111EBull;
-    h ^= h >> 31;
-    h *= 0xD6E8FEB86659FD93ull;
-    h ^= h >> 32;
-    return (h >> 11) * 0x1.0p-53;
-}
-
-// Hashed values on an integer lattice, interpolated with smoothstep weights (C1).
-double value_noise(double x, double y, uint64_t seed) {
-    const double fx = std::floor(x), fy = std::floor(y);
-    const double tx = x - fx, ty = y - fy;
-    const double sx = tx * tx * (3 - 2 * tx), sy = ty * ty * (3 - 2 * ty);
-    const int64_t ix = static_cast<int64_t>(fx), iy = static_cast<int64_t>(fy);
-    const double a = hash01(ix, iy, seed), b = hash01(ix + 1, iy, seed);
-    const double c = hash01(ix, iy + 1, seed), d = hash01(ix + 1, iy + 1, seed);
-    const double top = a + (b - a) * sx, bottom = c + (d - c) * sx;
-    return top + (bottom - top) * sy;
-}
+using detail::hash01;
+using detail::value_noise;
 
 Rgb mix(Rgb a, Rgb b, double t) {
     return {a[0] + (b[0] - a[0]) * t, a[1] + (b[1] - a[1]) * t, a[2] + (b[2] - a[2]) * t};

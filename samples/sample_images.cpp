@@ -5,28 +5,13 @@
 #include <cmath>
 #include <vector>
 
+#include "value_noise.h"
+
 namespace tesswave::samples {
 namespace {
 
-// Value noise on an integer lattice, hashed, smoothly interpolated: texture without tables.
-double hash01(int64_t x, int64_t y, uint64_t seed) {
-    uint64_t h = seed * 0x9E3779B97F4A7C15ull ^ static_cast<uint64_t>(x) * 0xBF58476D1CE4E5B9ull ^
-                 static_cast<uint64_t>(y) * 0x94D049BB133111EBull;
-    h ^= h >> 31;
-    h *= 0xD6E8FEB86659FD93ull;
-    h ^= h >> 32;
-    return (h >> 11) * 0x1.0p-53;
-}
-
-double value_noise(double x, double y, uint64_t seed) {
-    const double fx = std::floor(x), fy = std::floor(y);
-    const double tx = x - fx, ty = y - fy;
-    const double sx = tx * tx * (3 - 2 * tx), sy = ty * ty * (3 - 2 * ty);
-    const int64_t ix = static_cast<int64_t>(fx), iy = static_cast<int64_t>(fy);
-    const double a = hash01(ix, iy, seed), b = hash01(ix + 1, iy, seed);
-    const double c = hash01(ix, iy + 1, seed), d = hash01(ix + 1, iy + 1, seed);
-    return (a + (b - a) * sx) + ((c + (d - c) * sx) - (a + (b - a) * sx)) * sy;
-}
+using detail::hash01;
+using detail::value_noise;
 
 double fractal(double x, double y, uint64_t seed, int octaves) {
     double sum = 0, amp = 0.5, norm = 0;

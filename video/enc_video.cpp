@@ -9,6 +9,7 @@
 #include "core/error.h"
 #include "core/file_io.h"
 #include "core/metrics.h"
+#include "core/still_codec.h"
 #include "core/strings.h"
 #include "core/validate.h"
 #include "mesh_motion.h"
@@ -17,12 +18,6 @@ namespace tesswave::video {
 namespace {
 
 using IntPlanes = std::vector<std::vector<int32_t>>;
-
-// J of the grid mesh: the shorter side gets 8 to 16 T0 cells, as in the still codec.
-int default_levels(int width, int height, double density) {
-    const double samples = std::min(width, height) * std::sqrt(density);
-    return std::clamp(static_cast<int>(std::floor(std::log2(samples))) - 3, 1, 7);
-}
 
 void fps_fraction(double fps, TwvHeader& h) {
     if (!(fps > 0) || fps > 1000) throw Error(str("frame rate ", fps, " is out of range"));
@@ -46,7 +41,7 @@ TwvGroup choose_group(const TwvHeader& h, const VideoEncodeOptions& o) {
         throw Error(str("density ", o.density, " must lie in (0, 16] samples per pixel"));
     }
     const int J =
-        o.levels > 0 ? std::min(o.levels, 12) : default_levels(h.width, h.height, o.density);
+        o.levels > 0 ? std::min(o.levels, 12) : default_mesh_levels(h.width, h.height, o.density);
     if (o.motion_level < 0 || o.motion_level > J) {
         throw Error(str("motion level ", o.motion_level, " must lie in [0, ", J, "]"));
     }
@@ -61,21 +56,11 @@ TwvGroup choose_group(const TwvHeader& h, const VideoEncodeOptions& o) {
     return g;
 }
 
-// Dead-zone quantization: sign floor(|r| / s) per band and channel.
-IntPlanes quantize(const TwvDomain& domain, const Planes& r, float base_step) {
-    const CodingLayout& layout = domain.layout();
-    IntPlanes q(r.size(), std::vector<int32_t>(layout.size, 0));
+// Dead-zone quantization of every channel with the group's steps.
+IntPlanes quantize_planes(const TwvDomain& domain, const Planes& r, float base_step) {
+    IntPlanes q(r.size(), std::vector<int32_t>(domain.size(), 0));
     for (size_t c = 0; c < r.size(); ++c) {
-        for (size_t b = 0; b < layout.bands.size(); ++b) {
-            const float inv =
-                1.0f / domain.step(static_cast<int>(c), static_cast<int>(b), base_step);
-            for (int32_t k = layout.bands[b].begin; k < layout.bands[b].end; ++k) {
-                const int32_t id = layout.order[k];
-                const float m = std::floor(std::abs(r[c][id]) * inv);
-                if (!(m < 1e9f)) throw Error("quantizer step too small for this clip");
-                q[c][id] = r[c][id] < 0 ? -static_cast<int32_t>(m) : static_cast<int32_t>(m);
-            }
-        }
+        quantize(domain.layout(), r[c], domain.band_steps(static_cast<int>(c), base_step), q[c]);
     }
     return q;
 }
@@ -171,20 +156,19 @@ int64_t VideoEncoder::frame_budget(bool intra, uint64_t spent) const {
 float VideoEncoder::calibrate_step(const Image& frame) {
     Planes x;
     domain_->analyze(frame, vertices_, x);
-    const CodingLayout& layout = domain_->layout();
     Image image;
     const auto psnr_at = [&](double log_step) {
         const float step = static_cast<float>(std::exp2(log_step));
-        Planes y = x;
+        // Every plane known: the decoder's reconstruction of a fully decoded frame.
+        DecodedPlanes d{.value = quantize_planes(*domain_, x, step),
+                        .known = std::vector<std::vector<uint8_t>>(
+                            x.size(), std::vector<uint8_t>(domain_->size(), 0)),
+                        .complete = true};
+        Planes y = domain_->zeros();
         for (size_t c = 0; c < y.size(); ++c) {
-            for (size_t b = 0; b < layout.bands.size(); ++b) {
-                const float s = domain_->step(static_cast<int>(c), static_cast<int>(b), step);
-                for (int32_t k = layout.bands[b].begin; k < layout.bands[b].end; ++k) {
-                    float& v = y[c][layout.order[k]];
-                    const float m = std::floor(std::abs(v) / s);
-                    v = m == 0 ? 0.0f : std::copysign((m + 0.375f) * s, v);
-                }
-            }
+            const int channel = static_cast<int>(c);
+            dequantize(domain_->layout(), d, channel, domain_->band_steps(channel, step), false,
+                       y[c]);
         }
         domain_->synthesize(std::move(y), vertices_, image);
         return psnr(frame, image).all;
@@ -212,7 +196,7 @@ std::vector<uint8_t> VideoEncoder::code_frame(const Image& frame, TwvFrame& f, i
     for (size_t c = 0; c < residual_.size(); ++c) {
         for (size_t i = 0; i < residual_[c].size(); ++i) residual_[c][i] -= coefficients_[c][i];
     }
-    const IntPlanes q = quantize(*domain_, residual_, f.base_step);
+    const IntPlanes q = quantize_planes(*domain_, residual_, f.base_step);
     f.planes = count_planes(domain_->layout(), const_spans(q));
     BitplaneOptions bo{.shifts = std::vector<int>(domain_->layout().bands.size(), 0)};
     if (budget >= 0) {

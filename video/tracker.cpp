@@ -7,6 +7,7 @@
 #include <opencv2/video/tracking.hpp>
 
 #include "core/error.h"
+#include "core/opencv_image.h"
 #include "core/strings.h"
 
 namespace tesswave::video {
@@ -25,20 +26,6 @@ void check(const TrackerOptions& o) {
                         "), min_distance >= 0 (", o.min_distance, "), window >= 3 (", o.window,
                         "), pyramid_levels in 0..10 (", o.pyramid_levels, "), max_fb_error > 0 (",
                         o.max_fb_error, "), -1 <= min_ncc <= 1 (", o.min_ncc, ")"));
-    }
-}
-
-// BT.601 luma of the first three planes (or plane 0 of grey), rounded to 8 bits for OpenCV.
-void grey8(const Image& image, cv::Mat& out) {
-    out.create(image.height, image.width, CV_8UC1);
-    const size_t n = static_cast<size_t>(image.width) * image.height;
-    for (size_t i = 0; i < n; ++i) {
-        double v = image.planes[0][i];
-        if (image.channels() >= 3) {
-            v = 0.299 * v + 0.587 * image.planes[1][i] + 0.114 * image.planes[2][i];
-        }
-        v = v > 0 ? std::min(v, 1.0) : 0.0;  // NaN goes to 0
-        out.data[i] = static_cast<uint8_t>(std::lround(v * 255));
     }
 }
 

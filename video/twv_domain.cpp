@@ -51,6 +51,14 @@ float TwvDomain::step(int channel, int band, float base_step) const {
            static_cast<float>(layout_.bands[band].norm);
 }
 
+std::vector<float> TwvDomain::band_steps(int channel, float base_step) const {
+    std::vector<float> steps(layout_.bands.size());
+    for (size_t b = 0; b < steps.size(); ++b) {
+        steps[b] = step(channel, static_cast<int>(b), base_step);
+    }
+    return steps;
+}
+
 Planes TwvDomain::zeros() const {
     return Planes(header_.channels, std::vector<float>(size(), 0.0f));
 }
@@ -102,12 +110,10 @@ void add_decoded_residual(const TwvDomain& domain, const TwvFrame& frame, Planes
     const CodingLayout& layout = domain.layout();
     const BitplaneOptions options{.shifts = std::vector<int>(layout.bands.size(), 0)};
     const DecodedPlanes d = decode_bitplanes(layout, frame.planes, frame.stream, options);
-    std::vector<float> steps(layout.bands.size()), r(layout.size);
+    std::vector<float> r(layout.size);
     for (size_t c = 0; c < x.size(); ++c) {
-        for (size_t b = 0; b < steps.size(); ++b) {
-            steps[b] = domain.step(static_cast<int>(c), static_cast<int>(b), frame.base_step);
-        }
-        dequantize(layout, d, static_cast<int>(c), steps, false, r);
+        const int channel = static_cast<int>(c);
+        dequantize(layout, d, channel, domain.band_steps(channel, frame.base_step), false, r);
         for (int32_t i = 0; i < layout.size; ++i) x[c][i] += r[i];
     }
 }

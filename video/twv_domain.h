@@ -32,6 +32,8 @@ class TwvDomain {
     int32_t size() const { return layout_.size; }
     // Quantizer step of a band in a channel for a frame's base step.
     float step(int channel, int band, float base_step) const;
+    // The steps of every band in a channel.
+    std::vector<float> band_steps(int channel, float base_step) const;
     // Planes of the group's shape, all zero.
     Planes zeros() const;
 
