@@ -4,14 +4,20 @@
 #   ./run.sh test       the whole test suite (warnings as errors)
 #   ./run.sh sanitize   the test suite under -fsanitize=address,undefined
 #   ./run.sh bench      the Google Benchmark kernels (Release)
+#   ./run.sh fresh      the demo and test commands in a clean Debian 12 root (.ci/fresh-machine)
 set -euo pipefail
 cd "$(dirname "$0")"
 job=${1:-demo}
+if [[ $job == fresh ]]; then  # needs nothing from this machine but mmdebstrap
+    exec .ci/fresh-machine
+fi
 
 packages=(cmake ninja-build g++ pkg-config clang-format ffmpeg
           libopencv-dev libopenimageio-dev libgtest-dev libgmock-dev libbenchmark-dev
           libcli11-dev nlohmann-json3-dev libopenjp2-7-dev libopenjp2-tools
           libceres-dev
+          # OpenImageIO's CMake config names its tools (/usr/bin/iconvert and others).
+          openimageio-tools
           libavformat-dev libavcodec-dev libavutil-dev libswscale-dev libavfilter-dev)
 missing=()
 for p in "${packages[@]}"; do
@@ -80,7 +86,7 @@ bench)
     ./build/tests/tesswave_bench "${@:2}"
     ;;
 *)
-    echo "usage: ./run.sh demo|test|sanitize|bench" >&2
+    echo "usage: ./run.sh demo|test|sanitize|fuzz|bench|fresh" >&2
     exit 2
     ;;
 esac
