@@ -26,15 +26,43 @@ struct CompressArgs {
     int levels = 0;
 };
 
-void run_compress(const CompressArgs& a) {
+// Without a rate option: every coefficient quantized with the step whose error alone is about this
+// many dB, and the whole stream kept. Every transform and mesh reaches it (unlike a PSNR target,
+// which a coarse mesh may never reach): the grid wavelets land near 40 dB, a mesh at its
+// resampling ceiling.
+constexpr double kDefaultQualityDb = 40;
+
+// --lossless must give the image back bit for bit. A mesh does so only when its finest vertices
+// are the pixel centres (the aligned mesh): the default grid mesh is swapped for it, with a note;
+// a mesh file is refused, since its samples are not the pixels.
+void choose_lossless_mesh(CompressArgs& a) {
+    if (!a.lossless) return;
+    if (a.grid == "97") {
+        throw CLI::ValidationError("--lossless", "the 9/7 is not reversible (use --grid 53)");
+    }
+    if (!a.grid.empty() || a.aligned) return;
+    if (!a.mesh.empty()) {
+        throw CLI::ValidationError(
+            "--lossless",
+            str("a --mesh file cannot be lossless: its samples are not the pixels, "
+                "so the image cannot come back exactly (use --aligned or --grid 53)"));
+    }
+    a.aligned = true;
+    std::fprintf(stderr,
+                 "note: --lossless uses the aligned mesh (its finest vertices are the pixel "
+                 "centres), the only mesh that gives the image back exactly\n");
+}
+
+void run_compress(CompressArgs a) {
     check_output(a.output, a.overwrite, {a.input});
+    choose_lossless_mesh(a);
     const auto start = std::chrono::steady_clock::now();
     const Image image = read_image(a.input);
     StillOptions o{.transform = parse_grid(a.grid), .lossless = a.lossless};
     const double pixels = double(image.width) * image.height;
     if (a.bpp > 0) o.max_bytes = static_cast<int64_t>(std::floor(a.bpp * pixels / 8));
     if (a.psnr > 0) o.target_psnr = a.psnr;
-    if (a.bpp <= 0 && a.psnr <= 0 && !a.lossless) o.target_psnr = 40;
+    if (a.bpp <= 0 && a.psnr <= 0 && !a.lossless) o.base_step = step_for_psnr(kDefaultQualityDb);
     if (!a.mesh.empty()) o.mesh = read_mesh_for(a.mesh, a.input, image, a.fit_mesh);
     o.aligned = a.aligned;
     o.levels = a.levels;
@@ -46,6 +74,15 @@ void run_compress(const CompressArgs& a) {
         r = compress_image(image, o);
     } catch (const Error& e) {
         throw Error(str(a.input, ": ", e.what()));
+    }
+    if (!r.target_reached) {
+        std::fprintf(stderr,
+                     "warning: %s: %.2f dB is out of reach; writing the whole stream, %.2f dB%s\n",
+                     a.input.c_str(), a.psnr, r.psnr,
+                     r.header.transform == TwiTransform::mesh
+                         ? " (the mesh's resampling caps it: a denser mesh, --density or --grid "
+                           "goes higher)"
+                         : "");
     }
     write_file_atomic(
         a.output, std::string_view(reinterpret_cast<const char*>(r.file.data()), r.file.size()));
@@ -63,14 +100,15 @@ void run_compress(const CompressArgs& a) {
                         {"header_bytes", r.header.header_bytes},
                         {"bpp", bpp},
                         {"psnr", r.psnr},
+                        {"target_reached", r.target_reached},
                         {"seconds", seconds}};
     if (a.json) {
         std::printf("%s\n", j.dump(2).c_str());
         return;
     }
-    std::printf("%s -> %s: %zu bytes, %.4f bpp, PSNR %.2f dB (%s, %s J=%d), %.2f s\n",
+    std::printf("%s -> %s: %zu bytes, %.4f bpp, PSNR %.2f dB (%s, %sJ=%d), %.2f s\n",
                 a.input.c_str(), a.output.c_str(), r.file.size(), bpp, r.psnr,
-                transform_name(r.header.transform), r.header.lossless ? "lossless," : "",
+                transform_name(r.header.transform), r.header.lossless ? "lossless, " : "",
                 r.header.levels, seconds);
 }
 
@@ -119,11 +157,13 @@ void add_codec_commands(CLI::App& app) {
     auto* bpp = cmd->add_option("--bpp", c->bpp, "Exact budget in bits per pixel (file size)")
                     ->check(positive("a number of bits per pixel"));
     auto* psnr = cmd->add_option("--psnr", c->psnr,
-                                 "Smallest file reaching this PSNR in dB "
-                                 "(default 40 when no rate is given)")
+                                 "Smallest file reaching this PSNR in dB (out of reach: a "
+                                 "warning and the whole stream). Without --bpp, --psnr or "
+                                 "--lossless, every coefficient is kept at a 40 dB step")
                      ->check(CLI::Range(1.0, 200.0));
-    auto* lossless =
-        cmd->add_flag("--lossless", c->lossless, "Integer lifting, every bit-plane coded");
+    auto* lossless = cmd->add_flag("--lossless", c->lossless,
+                                   "Bit-exact: integer lifting, every bit-plane coded; the "
+                                   "aligned mesh unless --grid 53 (a --mesh file is refused)");
     bpp->excludes(psnr)->excludes(lossless);
     psnr->excludes(lossless);
     auto* grid = cmd->add_option("--grid", c->grid, "Fixed-grid wavelet on the pixels: 53 or 97")

@@ -62,9 +62,6 @@ morph::Correspondences correspondences(const MorphArgs& a, const Image& ia, cons
                              {"rejected_ransac", m.rejected_ransac}};
         c = {m.a, m.b};
     } else {
-        if (a.points_a.empty() || a.points_b.empty()) {
-            throw Error("give --points-a and --points-b, or --auto");
-        }
         c = {read_points(a.points_a), read_points(a.points_b)};
         report["snapped_to_border"] = morph::snap_to_border(c.a, ia.width, ia.height) +
                                       morph::snap_to_border(c.b, ib.width, ib.height);
@@ -224,10 +221,17 @@ void add_morph_commands(CLI::App& app) {
     cmd->add_option("-o,--output", a->output,
                     "out.mp4, out.mkv, out.gif, a folder for PNG frames, or an image with --at")
         ->required();
-    cmd->add_option("--points-a", a->points_a, "Points on A: 'x y' lines or a JSON list");
-    cmd->add_option("--points-b", a->points_b, "The corresponding points on B, same order");
-    cmd->add_option("--triangles", a->triangles, "Triangles over the points: 'i j k' lines");
-    cmd->add_flag("--auto", a->automatic, "Find correspondences (dense flow + features)");
+    auto* points_a =
+        cmd->add_option("--points-a", a->points_a, "Points on A: 'x y' lines or a JSON list");
+    auto* points_b =
+        cmd->add_option("--points-b", a->points_b, "The corresponding points on B, same order");
+    points_a->needs(points_b);
+    points_b->needs(points_a);
+    cmd->add_option("--triangles", a->triangles, "Triangles over the points: 'i j k' lines")
+        ->needs(points_a);
+    cmd->add_flag("--auto", a->automatic,
+                  "Find correspondences (dense flow + features); the default without point files")
+        ->excludes(points_a);
     cmd->add_option("--mesh", a->mesh,
                     "triangulation (default with points), grid[:CxR] or voronoi[:N] fitted with "
                     "Ceres (default grid with --auto)");
@@ -240,7 +244,10 @@ void add_morph_commands(CLI::App& app) {
     cmd->add_flag("--preview", a->preview, "Render from the coarse bands only (fast look-ups)");
     cmd->add_option("--size", a->size, "Output size WxH (default: A's)");
     add_schedule_options(cmd, *a);
-    cmd->callback([a] { run_morph(*a); });
+    cmd->callback([a] {
+        a->automatic = a->automatic || a->points_a.empty();
+        run_morph(*a);
+    });
 
     auto b = std::make_shared<MorphArgs>();
     cmd = app.add_subcommand("inbetween",

@@ -106,8 +106,7 @@ TwiHeader make_header(const Image& image, const StillOptions& o) {
     } else if (o.base_step > 0) {
         h.base_step = static_cast<float>(o.base_step);
     } else if (o.target_psnr > 0) {
-        h.base_step =
-            static_cast<float>(std::sqrt(12.0 * std::pow(10.0, -(o.target_psnr + 6) / 10)));
+        h.base_step = static_cast<float>(step_for_psnr(o.target_psnr + 6));
     } else {
         h.base_step = 1.0f / 1024;
     }
@@ -147,6 +146,8 @@ double image_psnr(const Image& a, const Image& b, int bit_depth) {
 }
 
 }  // namespace
+
+double step_for_psnr(double psnr) { return std::sqrt(12.0 * std::pow(10.0, -psnr / 10)); }
 
 int default_mesh_levels(int width, int height, double density) {
     const double samples = std::min(width, height) * std::sqrt(density);
@@ -202,10 +203,8 @@ StillResult compress_image(const Image& image, const StillOptions& o) {
         const int depth = h.bit_depth;
         size_t lo = 0, hi = stream.size();
         if (image_psnr(image, reconstruct(domain, h, stream), depth) < o.target_psnr) {
-            throw Error(str("the target of ", o.target_psnr,
-                            " dB is out of reach: the whole stream gives ",
-                            image_psnr(image, reconstruct(domain, h, stream), depth),
-                            " dB (try a denser mesh, --density, or the fixed grid)"));
+            result.target_reached = false;  // the whole stream is the best this file can do
+            lo = hi;
         }
         while (hi - lo > std::max<size_t>(1, hi / 500)) {
             const size_t mid = lo + (hi - lo) / 2;

@@ -20,7 +20,9 @@ struct StillOptions {
     TwiTransform transform = TwiTransform::mesh;
     bool lossless = false;  // integer lifting and YCoCg-R; every bit-plane coded
     // Rate control (lossy): at most max_bytes in all (0: no limit), or the smallest prefix whose
-    // decoded image reaches target_psnr dB (0: none). Without either the whole stream is kept.
+    // decoded image reaches target_psnr dB (0: none; a target the whole stream misses keeps the
+    // whole stream and clears StillResult::target_reached). Without either the whole stream is
+    // kept.
     int64_t max_bytes = 0;
     double target_psnr = 0;
     // Quantizer step for a band of unit norm, in units of the full pixel range; 0 picks one
@@ -41,8 +43,13 @@ struct StillOptions {
 struct StillResult {
     std::vector<uint8_t> file;
     TwiHeader header;
-    double psnr = 0;  // of the decoded file against the input (NaN when not measured)
+    double psnr = 0;             // of the decoded file against the input (NaN when not measured)
+    bool target_reached = true;  // false: target_psnr was out of reach, the whole stream is kept
 };
+
+// The quantizer step (StillOptions::base_step) whose quantization error alone is about `psnr` dB:
+// sqrt(12 * 10^(-psnr / 10)) of the full range (uniform error over a step: step^2 / 12).
+double step_for_psnr(double psnr);
 
 // J of a grid mesh over a width x height image at `density` samples a pixel: the shorter side
 // gets 8 to 16 T0 cells (J from 1 to 7). The still and video codecs' default.
