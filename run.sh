@@ -32,20 +32,24 @@ if ((${#missing[@]})); then
         "${missing[@]}" >/dev/null
 fi
 
-build() {  # build DIR [cmake options...]
-    local dir=$1
+build() {  # build DIR [cmake options...] [-- build options...]
+    local dir=$1 configure=() options=()
     shift
-    cmake -S . -B "$dir" -G Ninja -DCMAKE_BUILD_TYPE=Release "$@" >/dev/null
-    cmake --build "$dir" -j "$(nproc)"
+    while (($#)) && [[ $1 != -- ]]; do configure+=("$1"); shift; done
+    (($#)) && shift && options=("$@")
+    cmake -S . -B "$dir" -G Ninja -DCMAKE_BUILD_TYPE=Release "${configure[@]}" >/dev/null
+    cmake --build "$dir" -j "$(nproc)" "${options[@]}"
 }
+# demo and test configure build/ alike, so that the one reuses what the other compiled.
+main_build=(-DTESSWAVE_STRICT=ON -DTESSWAVE_BUILD_TESTS=ON)
 
 case $job in
 demo)
-    build build
+    build build "${main_build[@]}" -- --target tesswave
     ./build/apps/tesswave demo -y -o out/demo
     ;;
 test)
-    build build -DTESSWAVE_STRICT=ON -DTESSWAVE_BUILD_TESTS=ON
+    build build "${main_build[@]}"
     ctest --test-dir build --output-on-failure --no-tests=error -j "$(nproc)"
     ;;
 sanitize)

@@ -8,11 +8,11 @@
 #include <filesystem>
 #include <sstream>
 
-#include "core/error.h"
-#include "core/image_io.h"
-#include "core/mesh_io.h"
-#include "core/strings.h"
-#include "core/validate.h"
+#include "core/io/image_io.h"
+#include "core/io/mesh_io.h"
+#include "core/math/error.h"
+#include "core/math/strings.h"
+#include "core/math/validate.h"
 
 namespace tesswave::cli {
 

@@ -6,8 +6,8 @@
 #include <string>
 #include <vector>
 
-#include "core/analysis.h"
-#include "core/twi_format.h"
+#include "core/codec/twi_format.h"
+#include "core/eval/analysis.h"
 
 namespace tesswave::cli {
 

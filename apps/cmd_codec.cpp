@@ -5,11 +5,11 @@
 #include <nlohmann/json.hpp>
 
 #include "cli.h"
-#include "core/error.h"
-#include "core/file_io.h"
-#include "core/image_io.h"
-#include "core/still_codec.h"
-#include "core/strings.h"
+#include "core/codec/still_codec.h"
+#include "core/io/file_io.h"
+#include "core/io/image_io.h"
+#include "core/math/error.h"
+#include "core/math/strings.h"
 
 namespace tesswave::cli {
 namespace {

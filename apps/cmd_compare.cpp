@@ -10,15 +10,15 @@
 #include <sstream>
 
 #include "cli.h"
-#include "core/contact_sheet.h"
-#include "core/error.h"
-#include "core/file_io.h"
-#include "core/image_io.h"
-#include "core/metrics.h"
-#include "core/peer_jpeg2000.h"
-#include "core/plot.h"
-#include "core/still_codec.h"
-#include "core/strings.h"
+#include "core/codec/still_codec.h"
+#include "core/eval/contact_sheet.h"
+#include "core/eval/peer_jpeg2000.h"
+#include "core/eval/plot.h"
+#include "core/io/file_io.h"
+#include "core/io/image_io.h"
+#include "core/math/error.h"
+#include "core/math/metrics.h"
+#include "core/math/strings.h"
 
 namespace fs = std::filesystem;
 

@@ -13,17 +13,19 @@
 #include <sstream>
 
 #include "cli.h"
-#include "compare_video.h"
-#include "core/contact_sheet.h"
-#include "core/error.h"
-#include "core/file_io.h"
-#include "core/image_io.h"
-#include "core/strings.h"
+#include "core/eval/compare_video.h"
+#include "core/eval/contact_sheet.h"
+#include "core/io/file_io.h"
+#include "core/io/image_io.h"
+#include "core/math/error.h"
+#include "core/math/strings.h"
 
 namespace fs = std::filesystem;
 
 namespace tesswave::cli {
 namespace {
+
+using namespace eval;  // the compare-video harness
 
 struct CompareVideoArgs {
     std::vector<std::string> clips;

@@ -10,13 +10,13 @@
 #include <nlohmann/json.hpp>
 
 #include "cli.h"
-#include "core/contact_sheet.h"
-#include "core/error.h"
-#include "core/file_io.h"
-#include "core/image_io.h"
-#include "core/metrics.h"
-#include "core/strings.h"
-#include "core/video_io.h"
+#include "core/eval/contact_sheet.h"
+#include "core/io/file_io.h"
+#include "core/io/image_io.h"
+#include "core/io/video_io.h"
+#include "core/math/error.h"
+#include "core/math/metrics.h"
+#include "core/math/strings.h"
 #include "morph/inbetween.h"
 
 namespace fs = std::filesystem;

@@ -6,10 +6,10 @@
 #include <nlohmann/json.hpp>
 
 #include "cli.h"
-#include "core/error.h"
-#include "core/file_io.h"
-#include "core/strings.h"
-#include "core/twi_format.h"
+#include "core/codec/twi_format.h"
+#include "core/io/file_io.h"
+#include "core/math/error.h"
+#include "core/math/strings.h"
 #include "video/dec_video.h"
 
 namespace tesswave::cli {

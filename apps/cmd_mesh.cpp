@@ -5,17 +5,17 @@
 #include <nlohmann/json.hpp>
 
 #include "cli.h"
-#include "core/error.h"
-#include "core/file_io.h"
-#include "core/grid_mesh.h"
-#include "core/hierarchy.h"
-#include "core/image_io.h"
-#include "core/mesh_draw.h"
-#include "core/mesh_io.h"
-#include "core/strings.h"
-#include "core/triangulate.h"
-#include "core/validate.h"
-#include "core/voronoi.h"
+#include "core/eval/mesh_draw.h"
+#include "core/io/file_io.h"
+#include "core/io/image_io.h"
+#include "core/io/mesh_io.h"
+#include "core/math/error.h"
+#include "core/math/grid_mesh.h"
+#include "core/math/hierarchy.h"
+#include "core/math/strings.h"
+#include "core/math/triangulate.h"
+#include "core/math/validate.h"
+#include "core/math/voronoi.h"
 
 namespace tesswave::cli {
 namespace {

@@ -4,12 +4,12 @@
 #include <memory>
 
 #include "cli.h"
-#include "core/error.h"
-#include "core/file_io.h"
-#include "core/image_io.h"
-#include "core/mesh_io.h"
-#include "core/strings.h"
-#include "core/video_io.h"
+#include "core/io/file_io.h"
+#include "core/io/image_io.h"
+#include "core/io/mesh_io.h"
+#include "core/io/video_io.h"
+#include "core/math/error.h"
+#include "core/math/strings.h"
 #include "samples/sample_clip.h"
 #include "samples/sample_images.h"
 #include "samples/sample_meshes.h"

@@ -6,11 +6,11 @@
 #include <nlohmann/json.hpp>
 
 #include "cli.h"
-#include "core/error.h"
-#include "core/frame_source.h"
-#include "core/image_io.h"
-#include "core/mesh_draw.h"
-#include "core/strings.h"
+#include "core/eval/mesh_draw.h"
+#include "core/io/frame_source.h"
+#include "core/io/image_io.h"
+#include "core/math/error.h"
+#include "core/math/strings.h"
 #include "frame_sink.h"
 #include "video/dec_video.h"
 #include "video/enc_video.h"

@@ -4,9 +4,9 @@
 
 #include <filesystem>
 
-#include "core/error.h"
-#include "core/image_io.h"
-#include "core/strings.h"
+#include "core/io/image_io.h"
+#include "core/math/error.h"
+#include "core/math/strings.h"
 
 namespace tesswave::cli {
 namespace {

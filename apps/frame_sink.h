@@ -7,8 +7,8 @@
 #include <memory>
 #include <string>
 
-#include "core/image.h"
-#include "core/video_io.h"
+#include "core/io/video_io.h"
+#include "core/math/image.h"
 
 namespace tesswave::cli {
 

@@ -7,7 +7,7 @@
 #include <string>
 
 #include "cli.h"
-#include "core/error.h"
+#include "core/math/error.h"
 
 namespace {
 

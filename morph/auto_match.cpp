@@ -10,9 +10,9 @@
 #include <opencv2/video/tracking.hpp>
 #include <utility>
 
-#include "core/error.h"
-#include "core/opencv_image.h"
-#include "core/strings.h"
+#include "core/io/opencv_image.h"
+#include "core/math/error.h"
+#include "core/math/strings.h"
 
 namespace tesswave::morph {
 namespace {

@@ -15,8 +15,8 @@
 #include <functional>
 #include <vector>
 
-#include "core/geometry.h"
-#include "core/image.h"
+#include "core/math/geometry.h"
+#include "core/math/image.h"
 
 namespace tesswave::morph {
 

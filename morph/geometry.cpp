@@ -3,8 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
-#include "core/error.h"
-#include "core/strings.h"
+#include "core/math/error.h"
+#include "core/math/strings.h"
 
 namespace tesswave::morph {
 namespace {

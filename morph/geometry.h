@@ -5,7 +5,7 @@
 #include <span>
 #include <vector>
 
-#include "core/mesh.h"
+#include "core/math/mesh.h"
 
 namespace tesswave::morph {
 

@@ -4,7 +4,7 @@
 #include <cmath>
 
 #include "auto_match.h"
-#include "core/grid_mesh.h"
+#include "core/math/grid_mesh.h"
 
 namespace tesswave::morph {
 

@@ -2,7 +2,7 @@
 // automatic correspondences, a grid mesh on the first frame fitted to them, and a morph.
 #pragma once
 
-#include "core/image.h"
+#include "core/math/image.h"
 #include "morph.h"
 #include "pair.h"
 

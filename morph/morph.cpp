@@ -3,12 +3,12 @@
 #include <algorithm>
 #include <cmath>
 
-#include "core/error.h"
-#include "core/lifting.h"
-#include "core/render.h"
-#include "core/sampling.h"
-#include "core/strings.h"
-#include "core/validate.h"
+#include "core/math/error.h"
+#include "core/math/lifting.h"
+#include "core/math/render.h"
+#include "core/math/sampling.h"
+#include "core/math/strings.h"
+#include "core/math/validate.h"
 #include "geometry.h"
 
 namespace tesswave::morph {

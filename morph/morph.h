@@ -7,10 +7,10 @@
 #include <cstdint>
 #include <vector>
 
-#include "core/hierarchy.h"
-#include "core/image.h"
-#include "core/mesh.h"
-#include "core/render.h"
+#include "core/math/hierarchy.h"
+#include "core/math/image.h"
+#include "core/math/mesh.h"
+#include "core/math/render.h"
 #include "schedule.h"
 
 namespace tesswave::morph {

@@ -4,11 +4,11 @@
 #include <cmath>
 #include <sstream>
 
-#include "core/error.h"
-#include "core/mesh_fit.h"
-#include "core/strings.h"
-#include "core/triangulate.h"
-#include "core/validate.h"
+#include "core/fit/mesh_fit.h"
+#include "core/math/error.h"
+#include "core/math/strings.h"
+#include "core/math/triangulate.h"
+#include "core/math/validate.h"
 
 namespace tesswave::morph {
 namespace {

@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "core/mesh.h"
+#include "core/math/mesh.h"
 
 namespace tesswave::morph {
 

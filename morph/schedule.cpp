@@ -5,8 +5,8 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-#include "core/error.h"
-#include "core/strings.h"
+#include "core/math/error.h"
+#include "core/math/strings.h"
 
 namespace tesswave::morph {
 namespace {

@@ -4,8 +4,8 @@
 #include <array>
 #include <cmath>
 
-#include "core/error.h"
-#include "core/strings.h"
+#include "core/math/error.h"
+#include "core/math/strings.h"
 #include "value_noise.h"
 
 namespace tesswave::samples {

@@ -13,8 +13,8 @@
 
 #include <cstdint>
 
-#include "core/geometry.h"
-#include "core/image.h"
+#include "core/math/geometry.h"
+#include "core/math/image.h"
 
 namespace tesswave::samples {
 

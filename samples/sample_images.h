@@ -4,7 +4,7 @@
 
 #include <cstdint>
 
-#include "core/image.h"
+#include "core/math/image.h"
 
 namespace tesswave::samples {
 

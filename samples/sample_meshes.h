@@ -1,7 +1,7 @@
 // Procedural sample tessellations the project generates itself (no external data).
 #pragma once
 
-#include "core/mesh.h"
+#include "core/math/mesh.h"
 
 namespace tesswave::samples {
 

@@ -4,7 +4,7 @@
 #include <cmath>
 #include <random>
 
-#include "core/sampling.h"
+#include "core/math/sampling.h"
 #include "sample_images.h"
 
 namespace tesswave::samples {

@@ -1,13 +1,13 @@
-#include "core/analysis.h"
+#include "core/eval/analysis.h"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 
-#include "core/lifting.h"
-#include "core/metrics.h"
-#include "core/render.h"
-#include "core/sampling.h"
+#include "core/math/lifting.h"
+#include "core/math/metrics.h"
+#include "core/math/render.h"
+#include "core/math/sampling.h"
 #include "samples/sample_images.h"
 #include "samples/sample_meshes.h"
 #include "test_meshes.h"

@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "core/error.h"
+#include "core/math/error.h"
 #include "samples/sample_images.h"
 
 namespace tesswave::morph {

@@ -1,4 +1,4 @@
-#include "core/bd_rate.h"
+#include "core/eval/bd_rate.h"
 
 #include <gtest/gtest.h>
 
@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "core/error.h"
+#include "core/math/error.h"
 
 namespace tesswave {
 namespace {

@@ -1,12 +1,12 @@
-#include "core/coding_layout.h"
+#include "core/codec/coding_layout.h"
 
 #include <gtest/gtest.h>
 
 #include <map>
 #include <set>
 
-#include "core/grid_mesh.h"
-#include "core/voronoi.h"
+#include "core/math/grid_mesh.h"
+#include "core/math/voronoi.h"
 #include "samples/sample_meshes.h"
 #include "test_meshes.h"
 

@@ -1,4 +1,4 @@
-#include "core/fixed_grid.h"
+#include "core/math/fixed_grid.h"
 
 #include <gtest/gtest.h>
 
@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "core/error.h"
+#include "core/math/error.h"
 
 namespace tesswave {
 namespace {

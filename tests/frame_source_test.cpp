@@ -1,4 +1,4 @@
-#include "core/frame_source.h"
+#include "core/io/frame_source.h"
 
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -12,9 +12,9 @@
 #include <string>
 #include <vector>
 
-#include "core/error.h"
-#include "core/image_io.h"
-#include "core/video_io.h"
+#include "core/io/image_io.h"
+#include "core/io/video_io.h"
+#include "core/math/error.h"
 
 namespace tesswave {
 namespace {

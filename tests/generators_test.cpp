@@ -9,10 +9,10 @@
 #include <string>
 #include <vector>
 
-#include "core/error.h"
-#include "core/triangulate.h"
-#include "core/validate.h"
-#include "core/voronoi.h"
+#include "core/math/error.h"
+#include "core/math/triangulate.h"
+#include "core/math/validate.h"
+#include "core/math/voronoi.h"
 #include "test_meshes.h"
 
 namespace tesswave {

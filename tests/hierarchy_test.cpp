@@ -1,8 +1,8 @@
-#include "core/hierarchy.h"
+#include "core/math/hierarchy.h"
 
 #include <gtest/gtest.h>
 
-#include "core/error.h"
+#include "core/math/error.h"
 #include "samples/sample_meshes.h"
 #include "test_meshes.h"
 

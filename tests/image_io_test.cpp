@@ -1,4 +1,4 @@
-#include "core/image_io.h"
+#include "core/io/image_io.h"
 
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -8,7 +8,7 @@
 #include <fstream>
 #include <iterator>
 
-#include "core/error.h"
+#include "core/math/error.h"
 #include "test_meshes.h"
 
 namespace tesswave {

@@ -1,4 +1,4 @@
-#include "core/lifting.h"
+#include "core/math/lifting.h"
 
 #include <gtest/gtest.h>
 
@@ -6,9 +6,9 @@
 #include <map>
 #include <random>
 
-#include "core/error.h"
-#include "core/triangulate.h"
-#include "core/voronoi.h"
+#include "core/math/error.h"
+#include "core/math/triangulate.h"
+#include "core/math/voronoi.h"
 #include "samples/sample_meshes.h"
 #include "test_meshes.h"
 

@@ -1,4 +1,4 @@
-#include "core/mesh_fit.h"
+#include "core/fit/mesh_fit.h"
 
 #include <gtest/gtest.h>
 
@@ -6,9 +6,9 @@
 #include <numbers>
 #include <random>
 
-#include "core/hierarchy.h"
-#include "core/parametrization.h"
-#include "core/voronoi.h"
+#include "core/math/hierarchy.h"
+#include "core/math/parametrization.h"
+#include "core/math/voronoi.h"
 #include "test_meshes.h"
 
 namespace tesswave {

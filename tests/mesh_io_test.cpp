@@ -1,8 +1,8 @@
-#include "core/mesh_io.h"
+#include "core/io/mesh_io.h"
 
 #include <gtest/gtest.h>
 
-#include "core/error.h"
+#include "core/math/error.h"
 #include "samples/sample_meshes.h"
 #include "test_meshes.h"
 

@@ -1,4 +1,4 @@
-#include "core/metrics.h"
+#include "core/math/metrics.h"
 
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -13,8 +13,8 @@
 #include <string>
 #include <vector>
 
-#include "core/error.h"
-#include "core/image_io.h"
+#include "core/io/image_io.h"
+#include "core/math/error.h"
 
 namespace tesswave {
 namespace {

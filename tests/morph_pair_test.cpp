@@ -2,9 +2,9 @@
 
 #include <cmath>
 
-#include "core/error.h"
-#include "core/grid_mesh.h"
-#include "core/metrics.h"
+#include "core/math/error.h"
+#include "core/math/grid_mesh.h"
+#include "core/math/metrics.h"
 #include "morph/auto_match.h"
 #include "morph/morph.h"
 #include "morph/pair.h"

@@ -6,11 +6,11 @@
 #include <cmath>
 #include <random>
 
-#include "core/error.h"
-#include "core/grid_mesh.h"
-#include "core/metrics.h"
-#include "core/render.h"
-#include "core/validate.h"
+#include "core/math/error.h"
+#include "core/math/grid_mesh.h"
+#include "core/math/metrics.h"
+#include "core/math/render.h"
+#include "core/math/validate.h"
 #include "morph/geometry.h"
 #include "morph/schedule.h"
 #include "samples/sample_images.h"

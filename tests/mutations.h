@@ -11,7 +11,7 @@
 #include <utility>
 #include <vector>
 
-#include "core/mesh.h"
+#include "core/math/mesh.h"
 #include "robustness.h"
 #include "test_meshes.h"
 

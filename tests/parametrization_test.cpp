@@ -1,4 +1,4 @@
-#include "core/parametrization.h"
+#include "core/math/parametrization.h"
 
 #include <gtest/gtest.h>
 

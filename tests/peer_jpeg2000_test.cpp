@@ -1,4 +1,4 @@
-#include "core/peer_jpeg2000.h"
+#include "core/eval/peer_jpeg2000.h"
 
 #include <gtest/gtest.h>
 
@@ -9,8 +9,8 @@
 #include <string>
 #include <vector>
 
-#include "core/error.h"
-#include "core/metrics.h"
+#include "core/math/error.h"
+#include "core/math/metrics.h"
 
 namespace tesswave {
 namespace {

@@ -1,4 +1,4 @@
-#include "core/peer_video.h"
+#include "core/eval/peer_video.h"
 
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -8,9 +8,9 @@
 #include <string>
 #include <vector>
 
-#include "core/error.h"
-#include "core/metrics.h"
-#include "core/video_io.h"
+#include "core/io/video_io.h"
+#include "core/math/error.h"
+#include "core/math/metrics.h"
 
 namespace tesswave {
 namespace {

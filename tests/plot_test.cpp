@@ -1,4 +1,4 @@
-#include "core/plot.h"
+#include "core/eval/plot.h"
 
 #include <gtest/gtest.h>
 
@@ -7,7 +7,7 @@
 #include <limits>
 #include <numeric>
 
-#include "core/error.h"
+#include "core/math/error.h"
 
 namespace tesswave {
 namespace {

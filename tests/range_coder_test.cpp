@@ -1,4 +1,4 @@
-#include "core/range_coder.h"
+#include "core/codec/range_coder.h"
 
 #include <gtest/gtest.h>
 

@@ -8,11 +8,11 @@
 #include <string_view>
 #include <vector>
 
-#include "core/hierarchy.h"
-#include "core/mesh_io.h"
-#include "core/parametrization.h"
-#include "core/validate.h"
-#include "core/voronoi.h"
+#include "core/io/mesh_io.h"
+#include "core/math/hierarchy.h"
+#include "core/math/parametrization.h"
+#include "core/math/validate.h"
+#include "core/math/voronoi.h"
 #include "robustness.h"
 #include "samples/sample_meshes.h"
 

@@ -1,11 +1,11 @@
-#include "core/render.h"
+#include "core/math/render.h"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 
-#include "core/sampling.h"
-#include "core/voronoi.h"
+#include "core/math/sampling.h"
+#include "core/math/voronoi.h"
 #include "samples/sample_meshes.h"
 #include "test_meshes.h"
 

@@ -10,8 +10,8 @@
 #include <string>
 #include <typeinfo>
 
-#include "core/error.h"
-#include "core/strings.h"
+#include "core/math/error.h"
+#include "core/math/strings.h"
 
 namespace tesswave::testing {
 

@@ -6,8 +6,8 @@
 #include <cmath>
 #include <vector>
 
-#include "core/error.h"
-#include "core/sampling.h"
+#include "core/math/error.h"
+#include "core/math/sampling.h"
 
 namespace tesswave::samples {
 namespace {

@@ -1,10 +1,10 @@
-#include "core/selection.h"
+#include "core/math/selection.h"
 
 #include <gtest/gtest.h>
 
 #include <random>
 
-#include "core/lifting.h"
+#include "core/math/lifting.h"
 #include "samples/sample_meshes.h"
 #include "test_meshes.h"
 

@@ -1,15 +1,15 @@
-#include "core/still_codec.h"
+#include "core/codec/still_codec.h"
 
 #include <gtest/gtest.h>
 
 #include <bit>
 #include <cmath>
 
-#include "core/error.h"
-#include "core/grid_mesh.h"
-#include "core/hierarchy.h"
-#include "core/metrics.h"
-#include "core/still_domain.h"
+#include "core/codec/coding_domain.h"
+#include "core/math/error.h"
+#include "core/math/grid_mesh.h"
+#include "core/math/hierarchy.h"
+#include "core/math/metrics.h"
 #include "samples/sample_images.h"
 #include "samples/sample_meshes.h"
 
@@ -192,8 +192,8 @@ TEST(StillCodec, fixed_grid_53_equals_the_mesh_path_on_a_pixel_aligned_grid_mesh
     mesh_h.mesh = grid_mesh(n - 1, n - 1, mesh_h.grid_cols, mesh_h.grid_rows);
     TwiHeader grid_h = mesh_h;
     grid_h.transform = TwiTransform::grid53;
-    const std::vector<float> mesh = StillDomain(mesh_h, 0).analyze(image)[0];
-    const std::vector<float> grid = StillDomain(grid_h, 0).analyze(image)[0];
+    const std::vector<float> mesh = CodingDomain(still_shape(mesh_h), 0).analyze(image)[0];
+    const std::vector<float> grid = CodingDomain(still_shape(grid_h), 0).analyze(image)[0];
     const Hierarchy hierarchy = build_hierarchy(mesh_h.mesh, {.levels = J});
     const std::vector<Vec2> pos = refine_positions(hierarchy, mesh_h.mesh.vertices, J);
     int compared = 0, near_border = 0;

@@ -7,9 +7,9 @@
 #include <random>
 #include <string>
 
-#include "core/error.h"
-#include "core/grid_mesh.h"
-#include "core/validate.h"
+#include "core/math/error.h"
+#include "core/math/grid_mesh.h"
+#include "core/math/validate.h"
 
 namespace tesswave::testing {
 

@@ -8,7 +8,7 @@
 #include <set>
 #include <vector>
 
-#include "core/error.h"
+#include "core/math/error.h"
 #include "samples/sample_clip.h"
 
 namespace tesswave::video {

@@ -11,8 +11,8 @@
 #include <limits>
 #include <new>
 
-#include "core/grid_mesh.h"
-#include "core/validate.h"
+#include "core/math/grid_mesh.h"
+#include "core/math/validate.h"
 #include "twi_testing.h"
 
 namespace tesswave {
@@ -310,7 +310,7 @@ TEST(TwiRobustness, delta_coded_mesh_fields_cannot_overflow) {
 // A lossless header may claim up to 31 bit-planes per band whatever the bit depth, and the stream
 // then decodes to coefficients near 2^31. Their int32 inverse overflowed (UBSan, "signed integer
 // overflow" at lifting.cpp:56, :53, :65, :68 for the mesh and fixed_grid.cpp:141 for the grid
-// 5/3, from StillDomain::inverse_int); such coefficients now take the int64 inverse. Each header
+// 5/3, from CodingDomain::inverse_int); such coefficients now take the int64 inverse. Each header
 // here has one channel and a 64-byte stream; the test can only fail under -fsanitize=undefined.
 TEST(TwiRobustness, lossless_coefficients_near_2_to_31_do_not_overflow_the_integer_inverse) {
     auto lossless = [](TwiHeader h) {

@@ -20,12 +20,12 @@
 #include <tuple>
 #include <vector>
 
-#include "core/byte_io.h"
-#include "core/error.h"
-#include "core/image_io.h"
-#include "core/still_codec.h"
-#include "core/strings.h"
-#include "core/twi_format.h"
+#include "core/codec/byte_io.h"
+#include "core/codec/still_codec.h"
+#include "core/codec/twi_format.h"
+#include "core/io/image_io.h"
+#include "core/math/error.h"
+#include "core/math/strings.h"
 #include "robustness.h"
 #include "samples/sample_images.h"
 #include "samples/sample_meshes.h"

@@ -7,8 +7,8 @@
 #include <filesystem>
 #include <fstream>
 
-#include "core/byte_io.h"
-#include "core/error.h"
+#include "core/codec/byte_io.h"
+#include "core/math/error.h"
 #include "samples/sample_clip.h"
 #include "video/dec_video.h"
 #include "video/enc_video.h"

@@ -1,12 +1,12 @@
-#include "core/validate.h"
+#include "core/math/validate.h"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <limits>
 
-#include "core/error.h"
-#include "core/grid_mesh.h"
+#include "core/math/error.h"
+#include "core/math/grid_mesh.h"
 #include "samples/sample_meshes.h"
 
 namespace tesswave {

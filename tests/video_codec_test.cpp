@@ -7,8 +7,8 @@
 #include <filesystem>
 #include <fstream>
 
-#include "core/error.h"
-#include "core/metrics.h"
+#include "core/math/error.h"
+#include "core/math/metrics.h"
 #include "samples/sample_clip.h"
 #include "video/dec_video.h"
 #include "video/enc_video.h"

@@ -1,4 +1,4 @@
-#include "core/video_io.h"
+#include "core/io/video_io.h"
 
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -10,9 +10,9 @@
 #include <string>
 #include <vector>
 
-#include "core/error.h"
-#include "core/image_io.h"
-#include "core/metrics.h"
+#include "core/io/image_io.h"
+#include "core/math/error.h"
+#include "core/math/metrics.h"
 
 namespace tesswave {
 namespace {

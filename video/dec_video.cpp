@@ -2,9 +2,9 @@
 
 #include <algorithm>
 
-#include "core/byte_io.h"
-#include "core/error.h"
-#include "core/strings.h"
+#include "core/codec/byte_io.h"
+#include "core/math/error.h"
+#include "core/math/strings.h"
 #include "mesh_motion.h"
 
 namespace tesswave::video {
@@ -127,7 +127,7 @@ void VideoDecoder::start_group(const Chunk& chunk) {
             str(path_, ": group starts at frame ", g.first_frame, ", expected ", next_frame_));
     }
     if (!domain_ || !same_domain(g, group_))
-        domain_ = std::make_unique<TwvDomain>(header_, g, false);
+        domain_ = std::make_unique<CodingDomain>(group_domain(header_, g, false));
     group_ = std::move(g);
     in_group_ = true;
 }
@@ -143,7 +143,7 @@ void VideoDecoder::decode_frame(const Chunk& chunk, Image* out) {
     }
     std::vector<Vec2> vertices;
     if (domain_->is_mesh()) {
-        const std::vector<Vec2>& rest = domain_->mesh().vertices;
+        const std::vector<Vec2>& rest = domain_->shape().mesh.vertices;
         if (group_.motion == TwvMotion::tracked) {
             const bool two_back = next_frame_ >= group_.first_frame + 2;
             const std::vector<Vec2>& from = first ? rest : vertices_;
@@ -151,7 +151,7 @@ void VideoDecoder::decode_frame(const Chunk& chunk, Image* out) {
                                         : decode_motion(f.motion, from,
                                                         two_back ? std::span<const Vec2>(previous_)
                                                                  : std::span<const Vec2>(),
-                                                        domain_->mesh(), what);
+                                                        domain_->shape().mesh, what);
         } else {
             vertices = rest;
         }

@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-#include "core/image.h"
+#include "core/math/image.h"
 #include "twv_domain.h"
 #include "twv_format.h"
 
@@ -51,7 +51,9 @@ class VideoDecoder {
     const TwvFrameInfo& info() const { return info_; }
     const TwvGroup& group() const { return group_; }
     std::span<const Vec2> vertices() const { return vertices_; }
-    const Mesh* mesh() const { return domain_ && domain_->is_mesh() ? &domain_->mesh() : nullptr; }
+    const Mesh* mesh() const {
+        return domain_ && domain_->is_mesh() ? &domain_->shape().mesh : nullptr;
+    }
 
   private:
     struct Chunk {
@@ -71,7 +73,7 @@ class VideoDecoder {
     TwvHeader header_;
     std::optional<TwvIndex> index_;
     TwvGroup group_;
-    std::unique_ptr<TwvDomain> domain_;
+    std::unique_ptr<CodingDomain> domain_;
     bool in_group_ = false;
     int64_t next_frame_ = 0;  // the frame number the next frame chunk must carry
     Planes coefficients_;

@@ -2,8 +2,8 @@
 
 #include <algorithm>
 
-#include "core/error.h"
-#include "core/strings.h"
+#include "core/math/error.h"
+#include "core/math/strings.h"
 
 namespace tesswave::video {
 

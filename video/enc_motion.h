@@ -12,8 +12,8 @@
 #include <unordered_map>
 #include <vector>
 
-#include "core/mesh.h"
-#include "core/mesh_fit.h"
+#include "core/fit/mesh_fit.h"
+#include "core/math/mesh.h"
 #include "tracker.h"
 
 namespace tesswave::video {

@@ -4,14 +4,14 @@
 #include <cmath>
 #include <numeric>
 
-#include "core/bitplane.h"
-#include "core/colour.h"
-#include "core/error.h"
-#include "core/file_io.h"
-#include "core/metrics.h"
-#include "core/still_codec.h"
-#include "core/strings.h"
-#include "core/validate.h"
+#include "core/codec/bitplane.h"
+#include "core/codec/still_codec.h"
+#include "core/io/file_io.h"
+#include "core/math/colour.h"
+#include "core/math/error.h"
+#include "core/math/metrics.h"
+#include "core/math/strings.h"
+#include "core/math/validate.h"
 #include "mesh_motion.h"
 
 namespace tesswave::video {
@@ -57,7 +57,7 @@ TwvGroup choose_group(const TwvHeader& h, const VideoEncodeOptions& o) {
 }
 
 // Dead-zone quantization of every channel with the group's steps.
-IntPlanes quantize_planes(const TwvDomain& domain, const Planes& r, float base_step) {
+IntPlanes quantize_planes(const CodingDomain& domain, const Planes& r, float base_step) {
     IntPlanes q(r.size(), std::vector<int32_t>(domain.size(), 0));
     for (size_t c = 0; c < r.size(); ++c) {
         quantize(domain.layout(), r[c], domain.band_steps(static_cast<int>(c), base_step), q[c]);
@@ -93,12 +93,12 @@ VideoEncoder::VideoEncoder(const std::string& path, int width, int height, doubl
     header_.height = height;
     fps_fraction(fps, header_);
     group_ = choose_group(header_, o);
-    domain_ = std::make_unique<TwvDomain>(header_, group_, true);
+    domain_ = std::make_unique<CodingDomain>(group_domain(header_, group_, true));
     for (const CodingBand& b : domain_->layout().bands) {
         group_.band_norms.push_back(static_cast<float>(b.norm));
     }
     if (domain_->is_mesh() && group_.motion == TwvMotion::tracked) {
-        motion_ = std::make_unique<MeshMotion>(domain_->mesh(), o.mesh_motion);
+        motion_ = std::make_unique<MeshMotion>(domain_->shape().mesh, o.mesh_motion);
     }
     temporary_ = temporary_name(path);
     out_.open(temporary_, std::ios::binary | std::ios::trunc);
@@ -113,7 +113,9 @@ VideoEncoder::~VideoEncoder() {
     }
 }
 
-const Mesh* VideoEncoder::mesh() const { return domain_->is_mesh() ? &domain_->mesh() : nullptr; }
+const Mesh* VideoEncoder::mesh() const {
+    return domain_->is_mesh() ? &domain_->shape().mesh : nullptr;
+}
 
 const std::vector<Track>* VideoEncoder::tracks() const {
     return motion_ ? &motion_->tracks() : nullptr;

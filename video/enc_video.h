@@ -19,7 +19,7 @@
 #include <string>
 #include <vector>
 
-#include "core/image.h"
+#include "core/math/image.h"
 #include "enc_motion.h"
 #include "twv_domain.h"
 #include "twv_format.h"
@@ -87,7 +87,7 @@ class VideoEncoder {
     VideoEncodeOptions options_;
     TwvHeader header_;
     TwvGroup group_;
-    std::unique_ptr<TwvDomain> domain_;
+    std::unique_ptr<CodingDomain> domain_;
     std::unique_ptr<MeshMotion> motion_;
     TwvIndex index_;
     uint64_t written_ = 0;

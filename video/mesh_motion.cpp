@@ -5,10 +5,10 @@
 #include <bit>
 #include <cmath>
 
-#include "core/error.h"
-#include "core/range_coder.h"
-#include "core/strings.h"
-#include "core/validate.h"
+#include "core/codec/range_coder.h"
+#include "core/math/error.h"
+#include "core/math/strings.h"
+#include "core/math/validate.h"
 
 namespace tesswave::video {
 namespace {

@@ -11,8 +11,8 @@
 #include <string>
 #include <vector>
 
-#include "core/geometry.h"
-#include "core/mesh.h"
+#include "core/math/geometry.h"
+#include "core/math/mesh.h"
 
 namespace tesswave::video {
 

@@ -6,9 +6,9 @@
 #include <opencv2/imgproc.hpp>
 #include <opencv2/video/tracking.hpp>
 
-#include "core/error.h"
-#include "core/opencv_image.h"
-#include "core/strings.h"
+#include "core/io/opencv_image.h"
+#include "core/math/error.h"
+#include "core/math/strings.h"
 
 namespace tesswave::video {
 namespace {

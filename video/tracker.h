@@ -23,8 +23,8 @@
 #include <memory>
 #include <vector>
 
-#include "core/geometry.h"
-#include "core/image.h"
+#include "core/math/geometry.h"
+#include "core/math/image.h"
 
 namespace tesswave::video {
 

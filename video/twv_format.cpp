@@ -3,10 +3,10 @@
 #include <algorithm>
 #include <cmath>
 
-#include "core/byte_io.h"
-#include "core/error.h"
-#include "core/fixed_grid.h"
-#include "core/strings.h"
+#include "core/codec/byte_io.h"
+#include "core/math/error.h"
+#include "core/math/fixed_grid.h"
+#include "core/math/strings.h"
 
 namespace tesswave::video {
 namespace {

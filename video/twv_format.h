@@ -28,8 +28,8 @@
 #include <string>
 #include <vector>
 
-#include "core/bitplane.h"
-#include "core/twi_format.h"
+#include "core/codec/bitplane.h"
+#include "core/codec/twi_format.h"
 
 namespace tesswave::video {
 

@@ -28,10 +28,10 @@
 #include <utility>
 #include <vector>
 
-#include "core/metrics.h"
-#include "core/peer_jpeg2000.h"
-#include "core/still_codec.h"
-#include "core/strings.h"
+#include "core/codec/still_codec.h"
+#include "core/eval/peer_jpeg2000.h"
+#include "core/math/metrics.h"
+#include "core/math/strings.h"
 #include "samples/sample_images.h"
 
 namespace tesswave {

@@ -6,7 +6,7 @@
 #include <random>
 #include <vector>
 
-#include "core/fixed_grid.h"
+#include "core/math/fixed_grid.h"
 
 namespace tesswave {
 namespace {

@@ -5,9 +5,9 @@
 #include <cstdint>
 #include <random>
 
-#include "core/grid_mesh.h"
-#include "core/lifting.h"
-#include "core/voronoi.h"
+#include "core/math/grid_mesh.h"
+#include "core/math/lifting.h"
+#include "core/math/voronoi.h"
 
 namespace tesswave {
 namespace {

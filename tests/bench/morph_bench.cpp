@@ -36,9 +36,9 @@
 #include <span>
 #include <vector>
 
-#include "core/error.h"
-#include "core/grid_mesh.h"
-#include "core/metrics.h"
+#include "core/math/error.h"
+#include "core/math/grid_mesh.h"
+#include "core/math/metrics.h"
 #include "morph/auto_match.h"
 #include "morph/inbetween.h"
 #include "morph/morph.h"

@@ -6,9 +6,9 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "core/render.h"
-#include "core/sampling.h"
-#include "core/voronoi.h"
+#include "core/math/render.h"
+#include "core/math/sampling.h"
+#include "core/math/voronoi.h"
 #include "samples/sample_images.h"
 #include "samples/sample_meshes.h"
 

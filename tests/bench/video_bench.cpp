@@ -14,7 +14,7 @@
 #include <string>
 #include <vector>
 
-#include "core/peer_video.h"
+#include "core/eval/peer_video.h"
 #include "samples/sample_clip.h"
 #include "video/dec_video.h"
 #include "video/enc_video.h"

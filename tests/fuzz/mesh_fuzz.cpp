@@ -11,11 +11,11 @@
 #include <string_view>
 #include <vector>
 
-#include "core/error.h"
-#include "core/hierarchy.h"
-#include "core/lifting.h"
-#include "core/mesh_io.h"
-#include "core/validate.h"
+#include "core/io/mesh_io.h"
+#include "core/math/error.h"
+#include "core/math/hierarchy.h"
+#include "core/math/lifting.h"
+#include "core/math/validate.h"
 #include "fuzz_check.h"
 
 namespace {

@@ -8,10 +8,10 @@
 #include <string_view>
 #include <vector>
 
-#include "core/error.h"
-#include "core/mesh_io.h"
-#include "core/triangulate.h"
-#include "core/validate.h"
+#include "core/io/mesh_io.h"
+#include "core/math/error.h"
+#include "core/math/triangulate.h"
+#include "core/math/validate.h"
 #include "fuzz_check.h"
 
 namespace {

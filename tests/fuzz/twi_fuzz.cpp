@@ -12,10 +12,10 @@
 #include <string_view>
 #include <vector>
 
-#include "core/byte_io.h"
-#include "core/error.h"
-#include "core/still_codec.h"
-#include "core/twi_format.h"
+#include "core/codec/byte_io.h"
+#include "core/codec/still_codec.h"
+#include "core/codec/twi_format.h"
+#include "core/math/error.h"
 #include "fuzz_check.h"
 
 namespace {

@@ -14,8 +14,8 @@
 #include <string>
 #include <vector>
 
-#include "core/byte_io.h"
-#include "core/error.h"
+#include "core/codec/byte_io.h"
+#include "core/math/error.h"
 #include "fuzz_check.h"
 #include "video/dec_video.h"
 #include "video/twv_format.h"

@@ -1,0 +1,59 @@
+// The embedded bit-plane coder (DESIGN.md 2.6): quantized coefficients, most significant plane
+// first, each plane in three passes per band and channel as in EBCOT: significance of the
+// coefficients with a significant neighbour or parent, refinement of the significant ones, then
+// significance of the rest. Every binary decision goes through the adaptive range coder with a
+// context from the band, the channel class, and how many neighbours and parents are significant.
+// Any prefix of the stream decodes to the coefficients it determines; the rest stay zero, and
+// each coefficient is reconstructed 3/8 into the interval its known bits leave open.
+#pragma once
+
+#include <cstdint>
+#include <limits>
+#include <span>
+#include <vector>
+
+#include "core/codec/coding_layout.h"
+
+namespace tesswave {
+
+// Bit-planes per channel and band: 0 for an all-zero band, else 1 + the top bit of its largest
+// magnitude (at most 31).
+using PlaneCounts = std::vector<std::vector<uint8_t>>;  // [channel][band]
+
+PlaneCounts count_planes(const CodingLayout& layout, std::span<const std::span<const int32_t>> q);
+
+struct BitplaneOptions {
+    // Per band, how many sweeps later its planes come (0 for all in lossy coding, where the steps
+    // already carry the norms; lossless coding shifts coarse bands earlier by their norm).
+    std::vector<int> shifts;
+    size_t max_bytes = std::numeric_limits<size_t>::max();  // the encoder stops past this size
+};
+
+// Codes the quantized planes (sign and magnitude in an int32 per coefficient). The result may be
+// a few bytes longer than max_bytes; any prefix of it decodes.
+std::vector<uint8_t> encode_bitplanes(const CodingLayout& layout,
+                                      std::span<const std::span<const int32_t>> q,
+                                      const PlaneCounts& planes, const BitplaneOptions& options);
+
+struct DecodedPlanes {
+    std::vector<std::vector<int32_t>> value;  // signed magnitudes from the known bits
+    std::vector<std::vector<uint8_t>> known;  // lowest known plane per coefficient (32: none)
+    bool complete = false;                    // every plane of every band was decoded
+};
+
+// Throws Error when `planes` does not match the layout; never reads past `stream`.
+DecodedPlanes decode_bitplanes(const CodingLayout& layout, const PlaneCounts& planes,
+                               std::span<const uint8_t> stream, const BitplaneOptions& options);
+
+// Dead-zone quantization of one channel: sign floor(|x| / s) per coefficient, with s the step of
+// its band (computed as |x| times 1/s in float). Throws Error when a magnitude reaches 1e9 (a
+// step far too small for the values).
+void quantize(const CodingLayout& layout, std::span<const float> x,
+              std::span<const float> band_steps, std::span<int32_t> out);
+
+// Coefficient c of a band with step s: 0 when its known magnitude m is 0, else
+// sign (m + 3/8 2^k) s with k the lowest known plane, or exactly sign m s when k = 0 and `exact`.
+void dequantize(const CodingLayout& layout, const DecodedPlanes& decoded, int channel,
+                std::span<const float> band_steps, bool exact, std::span<float> out);
+
+}  // namespace tesswave

@@ -1,0 +1,256 @@
+#include "core/codec/coding_domain.h"
+
+#include <algorithm>
+#include <bit>
+#include <cmath>
+
+#include "core/math/colour.h"
+#include "core/math/error.h"
+#include "core/math/lifting.h"
+#include "core/math/sampling.h"
+#include "core/math/strings.h"
+
+namespace tesswave {
+namespace {
+
+template <class T>
+std::vector<std::span<T>> spans(std::vector<std::vector<T>>& planes) {
+    return {planes.begin(), planes.end()};
+}
+
+float max_value(SampleFormat format) { return format == SampleFormat::u16 ? 65535.0f : 255.0f; }
+
+}  // namespace
+
+GridWavelet wavelet_of(TwiTransform transform) {
+    return transform == TwiTransform::grid97 ? GridWavelet::cdf97 : GridWavelet::cdf53;
+}
+
+DomainShape still_shape(const TwiHeader& h) {
+    return {.transform = h.transform,
+            .width = h.width,
+            .height = h.height,
+            .channels = h.channels,
+            .format = h.bit_depth == 16 ? SampleFormat::u16 : SampleFormat::u8,
+            .colour = h.colour,
+            .levels = h.levels,
+            .mesh = h.mesh,
+            .placement = h.placement,
+            .channel_factors = h.channel_factors};
+}
+
+CodingDomain::CodingDomain(DomainShape shape, int probes, std::span<const float> norms)
+    : shape_(std::move(shape)) {
+    const DomainShape& s = shape_;
+    if (s.transform != TwiTransform::mesh) {
+        layout_ = grid_layout(s.width, s.height, s.levels, wavelet_of(s.transform), probes > 0);
+    } else {
+        hierarchy_ = build_hierarchy(s.mesh, {.levels = s.levels});
+        layout_ = mesh_layout(*hierarchy_, s.mesh.width * s.mesh.height, probes);
+        if (s.placement == MeshPlacement::centres) {
+            // Sample (x, y) is pixel (x, y); past the last column or row it repeats the edge pixel.
+            const std::vector<Vec2> p = refine_positions(*hierarchy_, s.mesh.vertices, s.levels);
+            pixel_of_sample_.resize(p.size());
+            for (size_t i = 0; i < p.size(); ++i) {
+                const double x = std::round(p[i].x), y = std::round(p[i].y);
+                if (std::abs(p[i].x - x) > 1e-6 || std::abs(p[i].y - y) > 1e-6) {
+                    throw Error(str("mesh sample ", i, " is not on a pixel centre"));
+                }
+                const int64_t px = std::min<int64_t>(static_cast<int64_t>(x), s.width - 1);
+                const int64_t py = std::min<int64_t>(static_cast<int64_t>(y), s.height - 1);
+                pixel_of_sample_[i] = static_cast<int32_t>(py * s.width + px);
+                if (x < s.width && y < s.height)
+                    written_samples_.push_back(static_cast<int32_t>(i));
+            }
+        } else {
+            rest_plan_ = plan_render(*hierarchy_, s.mesh.vertices, s.mesh.width, s.mesh.height,
+                                     s.width, s.height);
+        }
+    }
+    if (probes == 0 && !norms.empty()) {
+        if (norms.size() != layout_.bands.size()) {
+            throw Error(str(norms.size(), " band norms for a coding layout of ",
+                            layout_.bands.size(), " bands"));
+        }
+        for (size_t b = 0; b < norms.size(); ++b) layout_.bands[b].norm = norms[b];
+    }
+}
+
+float CodingDomain::step(int channel, int band, float base_step) const {
+    return base_step * shape_.channel_factors[channel] /
+           static_cast<float>(layout_.bands[band].norm);
+}
+
+std::vector<float> CodingDomain::band_steps(int channel, float base_step) const {
+    std::vector<float> steps(layout_.bands.size());
+    for (size_t b = 0; b < steps.size(); ++b)
+        steps[b] = step(channel, static_cast<int>(b), base_step);
+    return steps;
+}
+
+Planes CodingDomain::zeros() const {
+    return Planes(shape_.channels, std::vector<float>(size(), 0.0f));
+}
+
+GridTransformOptions CodingDomain::grid_options() const {
+    return {.wavelet = wavelet_of(shape_.transform), .levels = shape_.levels};
+}
+
+void CodingDomain::sample_into(const Image& image, std::span<const Vec2> vertices,
+                               Planes& out) const {
+    if (image.width != shape_.width || image.height != shape_.height ||
+        image.channels() != shape_.channels) {
+        throw Error(str("image is ", image.width, "x", image.height, " with ", image.channels(),
+                        " channels; the coding domain is ", shape_.width, "x", shape_.height,
+                        " with ", shape_.channels));
+    }
+    out.resize(shape_.channels);
+    if (!hierarchy_) {
+        for (int c = 0; c < shape_.channels; ++c) out[c] = image.planes[c];
+        return;
+    }
+    for (auto& plane : out) plane.resize(size());
+    if (pixel_of_sample_.empty()) {
+        sample_image_into(image, *hierarchy_,
+                          vertices.empty() ? std::span<const Vec2>(shape_.mesh.vertices) : vertices,
+                          spans(out));
+        return;
+    }
+    for (int c = 0; c < shape_.channels; ++c) {
+        for (size_t i = 0; i < pixel_of_sample_.size(); ++i)
+            out[c][i] = image.planes[c][pixel_of_sample_[i]];
+    }
+}
+
+void CodingDomain::to_image(const Planes& samples, std::span<const Vec2> vertices,
+                            Image& out) const {
+    out = make_image(shape_.width, shape_.height, shape_.channels, shape_.format);
+    if (!hierarchy_) {
+        out.planes = samples;
+        return;
+    }
+    if (pixel_of_sample_.empty()) {
+        const std::vector<std::span<const float>> in(samples.begin(), samples.end());
+        if (vertices.empty()) {
+            render_into(*rest_plan_, in, out);
+        } else {
+            render_into(plan_render(*hierarchy_, vertices, shape_.mesh.width, shape_.mesh.height,
+                                    shape_.width, shape_.height),
+                        in, out);
+        }
+        return;
+    }
+    for (int c = 0; c < out.channels(); ++c) {
+        for (int32_t i : written_samples_) out.planes[c][pixel_of_sample_[i]] = samples[c][i];
+    }
+}
+
+void CodingDomain::analyze(const Image& image, std::span<const Vec2> vertices, Planes& out) const {
+    sample_into(image, vertices, out);
+    if (shape_.colour == TwiColour::ycbcr) ycbcr_forward(out[0], out[1], out[2]);
+    if (hierarchy_) {
+        forward_transform(*hierarchy_, spans(out));
+    } else {
+        for (auto& plane : out) grid_forward(plane, shape_.width, shape_.height, grid_options());
+    }
+}
+
+Planes CodingDomain::analyze(const Image& image) const {
+    Planes x;
+    analyze(image, {}, x);
+    return x;
+}
+
+void CodingDomain::synthesize(Planes x, std::span<const Vec2> vertices, Image& out) const {
+    if (hierarchy_) {
+        inverse_transform(*hierarchy_, spans(x));
+    } else {
+        for (auto& plane : x) grid_inverse(plane, shape_.width, shape_.height, grid_options());
+    }
+    if (shape_.colour == TwiColour::ycbcr) ycbcr_inverse(x[0], x[1], x[2]);
+    to_image(x, vertices, out);
+}
+
+Image CodingDomain::synthesize(Planes coefficients) const {
+    Image out;
+    synthesize(std::move(coefficients), {}, out);
+    return out;
+}
+
+IntPlanes CodingDomain::samples_int(const Image& image) const {
+    Planes s;
+    sample_into(image, {}, s);
+    const float top = max_value(shape_.format);
+    IntPlanes out(s.size(), std::vector<int32_t>(size()));
+    for (size_t c = 0; c < s.size(); ++c) {
+        for (int32_t i = 0; i < size(); ++i) {
+            const float v = std::clamp(s[c][i], 0.0f, 1.0f) * top;
+            out[c][i] = static_cast<int32_t>(std::lround(v));
+        }
+    }
+    return out;
+}
+
+IntPlanes CodingDomain::analyze_int(const Image& image) const {
+    IntPlanes x = samples_int(image);
+    if (shape_.colour == TwiColour::ycocg_r) ycocg_r_forward(x[0], x[1], x[2]);
+    if (hierarchy_) {
+        forward_transform_int(*hierarchy_, spans(x));
+    } else {
+        for (auto& plane : x) grid_forward_int53(plane, shape_.width, shape_.height, shape_.levels);
+    }
+    return x;
+}
+
+IntPlanes CodingDomain::inverse_int(IntPlanes x) const {
+    // The integer inverse grows values by less than 16x a level (at most 6.25x for the grid 5/3,
+    // 10.75x for the mesh), so int32 is safe while largest * 16^levels < 2^30. Coefficients from
+    // a damaged stream can exceed that: they take the int64 inverse, or are refused past 2^62.
+    uint32_t largest = 0;
+    for (const auto& plane : x) {
+        for (int32_t v : plane)
+            largest = std::max(largest, static_cast<uint32_t>(v < 0 ? -int64_t{v} : v));
+    }
+    const int levels = hierarchy_ ? hierarchy_->finest() : shape_.levels;
+    const int bits = std::bit_width(largest) + 4 * levels;
+    const int W = shape_.width, H = shape_.height;
+    if (bits <= 30) {
+        if (hierarchy_) {
+            inverse_transform_int(*hierarchy_, spans(x));
+        } else {
+            for (auto& plane : x) grid_inverse_int53(plane, W, H, shape_.levels);
+        }
+    } else if (bits <= 62) {
+        std::vector<std::vector<int64_t>> wide(x.size());
+        for (size_t c = 0; c < x.size(); ++c) wide[c].assign(x[c].begin(), x[c].end());
+        if (hierarchy_) {
+            inverse_transform_int(*hierarchy_, spans(wide));
+        } else {
+            for (auto& plane : wide) grid_inverse_int53(plane, W, H, shape_.levels);
+        }
+        constexpr int64_t kLimit = int64_t{1} << 30;  // no sample of a valid file comes near it
+        for (size_t c = 0; c < x.size(); ++c) {
+            for (size_t i = 0; i < x[c].size(); ++i) {
+                x[c][i] = static_cast<int32_t>(std::clamp(wide[c][i], -kLimit, kLimit));
+            }
+        }
+    } else {
+        throw Error("lossless coefficients out of range (a corrupted stream)");
+    }
+    if (shape_.colour == TwiColour::ycocg_r) ycocg_r_inverse(x[0], x[1], x[2]);
+    return x;
+}
+
+Image CodingDomain::synthesize_int(IntPlanes coefficients) const {
+    const IntPlanes x = inverse_int(std::move(coefficients));
+    const float scale = 1.0f / max_value(shape_.format);
+    Planes s(x.size(), std::vector<float>(size()));
+    for (size_t c = 0; c < x.size(); ++c) {
+        for (int32_t i = 0; i < size(); ++i) s[c][i] = static_cast<float>(x[c][i]) * scale;
+    }
+    Image out;
+    to_image(s, {}, out);
+    return out;
+}
+
+}  // namespace tesswave

@@ -1,0 +1,94 @@
+// The coding domain of the still (.twi) and video (.twv) codecs: from an image to the coefficients
+// the bit-plane coder codes, and back. Mesh path: sample the image on T_J at given T0 vertex
+// positions (or read the pixels directly when the vertices sit on pixel centres), colour
+// transform, lifting; fixed-grid path: colour transform and the 5/3 or 9/7 on the pixels.
+//
+// The topology (hierarchy and coding layout) is built once; positions are per call, so a video
+// group codes every frame of a moving mesh with one domain. The quantizer step of band b in
+// channel c for a base step s is s * channel_factor[c] / norm[b] (DESIGN.md 2.6): the one
+// band-step formula of both codecs.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <span>
+#include <vector>
+
+#include "core/codec/coding_layout.h"
+#include "core/codec/twi_format.h"
+#include "core/math/fixed_grid.h"
+#include "core/math/hierarchy.h"
+#include "core/math/image.h"
+#include "core/math/render.h"
+
+namespace tesswave {
+
+using Planes = std::vector<std::vector<float>>;
+using IntPlanes = std::vector<std::vector<int32_t>>;
+
+// The one mapping from a transform choice to its fixed-grid wavelet (the 5/3 for the mesh too:
+// its coarse-to-fine rules are the 5/3's on a grid).
+GridWavelet wavelet_of(TwiTransform transform);
+
+// What a domain is built from.
+struct DomainShape {
+    TwiTransform transform = TwiTransform::mesh;
+    int width = 0, height = 0, channels = 1;        // of the images
+    SampleFormat format = SampleFormat::u8;         // of synthesized images
+    TwiColour colour = TwiColour::none;             // applied to the first three channels
+    int levels = 0;                                 // J (mesh) or decomposition levels (grid)
+    Mesh mesh = {};                                 // mesh path: T0 at rest
+    MeshPlacement placement = MeshPlacement::area;  // see TwiHeader
+    std::vector<float> channel_factors = {};        // step factor per channel
+};
+
+// The shape a .twi header describes.
+DomainShape still_shape(const TwiHeader& header);
+
+class CodingDomain {
+  public:
+    // Band norms: measured with `probes` impulses per band (encoders), or, with probes == 0, taken
+    // from `norms` (decoders; its size must match the layout's bands).
+    CodingDomain(DomainShape shape, int probes, std::span<const float> norms = {});
+
+    const DomainShape& shape() const { return shape_; }
+    const CodingLayout& layout() const { return layout_; }
+    bool is_mesh() const { return hierarchy_.has_value(); }
+    int32_t size() const { return layout_.size; }
+
+    // Quantizer step of a band in a channel for a base step, and the steps of every band.
+    float step(int channel, int band, float base_step) const;
+    std::vector<float> band_steps(int channel, float base_step) const;
+    // Planes of the domain's shape, all zero.
+    Planes zeros() const;
+
+    // Lossy: coefficients of `image` sampled at T0 vertex positions `vertices` (mesh path; empty:
+    // the rest mesh; ignored on the fixed grid). `out` is resized as needed.
+    void analyze(const Image& image, std::span<const Vec2> vertices, Planes& out) const;
+    Planes analyze(const Image& image) const;
+    // The image of `coefficients` (consumed) on those vertex positions.
+    void synthesize(Planes coefficients, std::span<const Vec2> vertices, Image& out) const;
+    Image synthesize(Planes coefficients) const;
+
+    // Lossless, at rest: integer samples (pixel values in [0, 2^depth - 1]), integer lifting.
+    IntPlanes analyze_int(const Image& image) const;
+    Image synthesize_int(IntPlanes coefficients) const;
+    // Inverse lifting and colour transform only: the integer samples.
+    IntPlanes inverse_int(IntPlanes x) const;
+    // The integer samples before colour transform and lifting (mesh samples or pixels).
+    IntPlanes samples_int(const Image& image) const;
+
+  private:
+    void sample_into(const Image& image, std::span<const Vec2> vertices, Planes& out) const;
+    void to_image(const Planes& samples, std::span<const Vec2> vertices, Image& out) const;
+    GridTransformOptions grid_options() const;
+
+    DomainShape shape_;
+    std::optional<Hierarchy> hierarchy_;    // mesh path
+    std::vector<int32_t> pixel_of_sample_;  // centres placement: the pixel each sample reads
+    std::vector<int32_t> written_samples_;  // the samples that are pixels (one per pixel)
+    std::optional<RenderPlan> rest_plan_;   // area placement: rendering at rest
+    CodingLayout layout_;
+};
+
+}  // namespace tesswave

@@ -1,0 +1,201 @@
+#include "core/codec/coding_layout.h"
+
+#include <algorithm>
+#include <cmath>
+#include <span>
+
+#include "core/math/selection.h"
+
+namespace tesswave {
+namespace {
+
+// Ends the CSR offset arrays and builds the children lists from the parents.
+void close_lists(CodingLayout& layout) {
+    layout.nb_offsets.push_back(static_cast<int32_t>(layout.nb.size()));
+    layout.pa_offsets.push_back(static_cast<int32_t>(layout.pa.size()));
+    layout.ch_offsets.assign(static_cast<size_t>(layout.size) + 1, 0);
+    for (int32_t p : layout.pa) ++layout.ch_offsets[p + 1];
+    for (int32_t i = 0; i < layout.size; ++i) layout.ch_offsets[i + 1] += layout.ch_offsets[i];
+    layout.ch.resize(layout.pa.size());
+    std::vector<int32_t> fill(layout.ch_offsets.begin(), layout.ch_offsets.end() - 1);
+    for (size_t k = 0; k < layout.order.size(); ++k) {
+        for (int32_t i = layout.pa_offsets[k]; i < layout.pa_offsets[k + 1]; ++i) {
+            layout.ch[fill[layout.pa[i]]++] = layout.order[k];
+        }
+    }
+}
+
+void start_entry(CodingLayout& layout, int32_t id) {
+    layout.order.push_back(id);
+    layout.nb_primary.push_back(0);
+    layout.nb_offsets.push_back(static_cast<int32_t>(layout.nb.size()));
+    layout.pa_offsets.push_back(static_cast<int32_t>(layout.pa.size()));
+}
+
+}  // namespace
+
+CodingLayout mesh_layout(const Hierarchy& h, double domain_area, int probes) {
+    const int J = h.finest();
+    const int32_t n = h.num_samples(J), n0 = h.num_samples(0);
+    CodingLayout layout;
+    layout.size = n;
+    layout.order.reserve(n);
+    std::vector<double> scratch;
+    auto norm = [&](int32_t begin, int32_t end) {
+        return impulse_norm(h, begin, end, domain_area, probes, scratch);
+    };
+
+    layout.bands.push_back({-1, 'v', 0, n0, norm(0, n0)});
+    for (int32_t i = 0; i < n0; ++i) start_entry(layout, i);
+    auto parent = [&](int32_t id) {
+        if (id >= n0) layout.pa.push_back(id);
+    };
+    for (int j = 0; j < J; ++j) {
+        const LevelTopology& t = h.levels[j];
+        const int32_t e0 = t.n_vertices, f0 = e0 + t.num_edges(), f1 = t.n_next();
+        // Edge points.
+        layout.bands.push_back({j, 'e', e0, f0, norm(e0, f0)});
+        for (int32_t e = 0; e < t.num_edges(); ++e) {
+            start_entry(layout, e0 + e);
+            // Primary: the opposite edge in each face with an even number of corners (on a
+            // grid, the EBCOT neighbours across the edge's own direction).
+            auto opposite = [&](int32_t f) {
+                const int32_t begin = t.face_offsets[f], k = t.face_offsets[f + 1] - begin;
+                if (k % 2) return -1;
+                for (int32_t c = 0; c < k; ++c) {
+                    if (t.face_e[begin + c] == e) return t.face_e[begin + (c + k / 2) % k];
+                }
+                return -1;
+            };
+            for (int32_t f : t.edge_f[e]) {
+                if (f >= 0 && opposite(f) >= 0) {
+                    layout.nb.push_back(e0 + opposite(f));
+                    ++layout.nb_primary.back();
+                }
+            }
+            for (int32_t f : t.edge_f[e]) {
+                if (f < 0) continue;
+                layout.nb.push_back(f0 + f);
+                const int32_t opp = opposite(f);
+                for (int32_t c = t.face_offsets[f]; c < t.face_offsets[f + 1]; ++c) {
+                    if (t.face_e[c] != e && t.face_e[c] != opp)
+                        layout.nb.push_back(e0 + t.face_e[c]);
+                }
+            }
+            parent(t.edge_v[e][0]);
+            parent(t.edge_v[e][1]);
+        }
+        // Face points.
+        layout.bands.push_back({j, 'f', f0, f1, norm(f0, f1)});
+        for (int32_t f = 0; f < t.num_faces(); ++f) {
+            start_entry(layout, f0 + f);
+            // Primary: the faces across its edges; then its edge points.
+            for (int32_t c = t.face_offsets[f]; c < t.face_offsets[f + 1]; ++c) {
+                const auto& ef = t.edge_f[t.face_e[c]];
+                const int32_t other = ef[0] == f ? ef[1] : ef[0];
+                if (other >= 0) {
+                    layout.nb.push_back(f0 + other);
+                    ++layout.nb_primary.back();
+                }
+            }
+            for (int32_t c = t.face_offsets[f]; c < t.face_offsets[f + 1]; ++c) {
+                layout.nb.push_back(e0 + t.face_e[c]);
+                parent(t.face_v[c]);
+            }
+        }
+    }
+    close_lists(layout);
+    // Bands hold positions in `order`; for the mesh these equal the coefficient ids.
+    return layout;
+}
+
+// Band norms from centre impulses, on a plane just large enough for the coarsest basis functions
+// (12 cells of the coarsest level a side): the bands are translation invariant inside, so this
+// equals the full plane's norms while costing a fraction of its transforms.
+std::vector<double> grid_band_norms(int width, int height, int levels, GridWavelet wavelet) {
+    const int64_t reach = int64_t{12} << std::min(levels, 24);
+    const int w = static_cast<int>(std::min<int64_t>(width, reach));
+    const int h = static_cast<int>(std::min<int64_t>(height, reach));
+    const std::vector<GridBand> bands = grid_bands(w, h, levels);
+    std::vector<float> x(static_cast<size_t>(w) * h);
+    std::vector<double> norms;
+    for (const GridBand& g : bands) {
+        std::fill(x.begin(), x.end(), 0.0f);
+        x[static_cast<size_t>(g.y0 + g.height / 2) * w + g.x0 + g.width / 2] = 1.0f;
+        grid_inverse(x, w, h, {.wavelet = wavelet, .levels = levels});
+        double energy = 0;
+        for (float v : x) energy += double{v} * v;
+        norms.push_back(std::sqrt(energy));
+    }
+    return norms;
+}
+
+CodingLayout grid_layout(int width, int height, int levels, GridWavelet wavelet, bool norms) {
+    CodingLayout layout;
+    layout.size = width * height;
+    layout.order.reserve(layout.size);
+    layout.nb_primary.reserve(layout.size);
+    layout.nb_offsets.reserve(layout.size + 1);
+    layout.pa_offsets.reserve(layout.size + 1);
+    layout.nb.reserve(static_cast<size_t>(layout.size) * 8);
+    layout.pa.reserve(layout.size);
+    const std::vector<GridBand> bands = grid_bands(width, height, levels);
+    const char types[] = {'L', 'H', 'V', 'D'};
+    std::vector<double> band_norms(bands.size(), 1.0);
+    if (norms) {
+        band_norms = grid_band_norms(width, height, levels, wavelet);
+        if (band_norms.size() != bands.size()) band_norms.assign(bands.size(), 1.0);
+    }
+    for (size_t b = 0; b < bands.size(); ++b) {
+        const GridBand& g = bands[b];
+        const int32_t begin = static_cast<int32_t>(layout.order.size());
+        // The same orientation one level coarser (none for the LL band and the coarsest details).
+        const GridBand* coarser = nullptr;
+        if (g.type != 0 && b >= 4 && bands[b - 3].level == g.level + 1) coarser = &bands[b - 3];
+        // The 8 neighbour offsets, primary ones first.
+        int dxs[8], dys[8], n = 0, primaries = 0;
+        for (bool primary : {true, false}) {
+            for (int dy = -1; dy <= 1; ++dy) {
+                for (int dx = -1; dx <= 1; ++dx) {
+                    const bool p = g.type == 3   ? (dx && dy)
+                                   : g.type == 1 ? (!dx && dy)
+                                                 : (dx && !dy);
+                    if ((dx || dy) && p == primary) {
+                        dxs[n] = dx;
+                        dys[n++] = dy;
+                        primaries += primary;
+                    }
+                }
+            }
+        }
+        for (int y = 0; y < g.height; ++y) {
+            const bool inner_row = y > 0 && y + 1 < g.height;
+            for (int xx = 0; xx < g.width; ++xx) {
+                const int32_t id = (g.y0 + y) * width + g.x0 + xx;
+                start_entry(layout, id);
+                if (inner_row && xx > 0 && xx + 1 < g.width) {
+                    for (int i = 0; i < 8; ++i) layout.nb.push_back(id + dys[i] * width + dxs[i]);
+                    layout.nb_primary.back() = static_cast<uint8_t>(primaries);
+                } else {
+                    for (int i = 0; i < 8; ++i) {
+                        const int yy = y + dys[i], xn = xx + dxs[i];
+                        if (yy < 0 || yy >= g.height || xn < 0 || xn >= g.width) continue;
+                        layout.nb.push_back(id + dys[i] * width + dxs[i]);
+                        layout.nb_primary.back() += i < primaries;
+                    }
+                }
+                if (coarser) {
+                    const int py = std::min(y / 2, coarser->height - 1);
+                    const int px = std::min(xx / 2, coarser->width - 1);
+                    layout.pa.push_back((coarser->y0 + py) * width + coarser->x0 + px);
+                }
+            }
+        }
+        layout.bands.push_back({g.level, types[g.type], begin,
+                                static_cast<int32_t>(layout.order.size()), band_norms[b]});
+    }
+    close_lists(layout);
+    return layout;
+}
+
+}  // namespace tesswave

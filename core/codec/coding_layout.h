@@ -1,0 +1,57 @@
+// How the embedded coder walks a transform's coefficients (DESIGN.md 2.6): bands in coding order
+// (coarse first) with the L2 norm of their basis functions, and for every coefficient the
+// neighbours and parents whose significance chooses its probability contexts. The coder sees only
+// this description, so one coder serves the mesh transform and the fixed-grid wavelets.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "core/math/fixed_grid.h"
+#include "core/math/hierarchy.h"
+
+namespace tesswave {
+
+struct CodingBand {
+    // Mesh: the decomposition step (T_{level+1} -> T_level) and 'e' (edge points) or 'f' (face
+    // points); the base band (the T0 values) is level -1, type 'v'. Grid: the level (1 finest) and
+    // 'L' (LL), 'H' (HL), 'V' (LH), 'D' (HH).
+    int level = 0;
+    char type = 'v';
+    int32_t begin = 0, end = 0;  // positions in CodingLayout::order
+    // L2 norm of a basis function of the band in the image, in units where a pixel has area 1:
+    // a coefficient error e costs about e^2 norm^2 of squared pixel error.
+    double norm = 1.0;
+};
+
+struct CodingLayout {
+    int32_t size = 0;            // coefficients per plane
+    std::vector<int32_t> order;  // coefficient ids, band after band
+    std::vector<CodingBand> bands;
+    // Per position k of `order`: neighbours at the same level [nb_offsets[k], nb_offsets[k+1])
+    // and parents at coarser levels [pa_offsets[k], pa_offsets[k+1]), as coefficient ids.
+    // The first nb_primary[k] neighbours are the primary ones (those along which the band's
+    // coefficients correlate most); the coder counts primary and other neighbours apart.
+    std::vector<int32_t> nb_offsets, nb, pa_offsets, pa;
+    std::vector<uint8_t> nb_primary;
+    // Per coefficient id: the coefficients it is a parent of [ch_offsets[i], ch_offsets[i+1]).
+    std::vector<int32_t> ch_offsets, ch;
+};
+
+// The mesh transform of a hierarchy down to T0 (lifting.h layout). A band's norm is the mean
+// over `probes` unit impulses spread through it, reconstructed to T_J, each sample standing for
+// domain_area / |V_J| pixels (probes = 0: norms left at 1, for decoders that read them).
+// Neighbours of an edge point: the opposite edge points of its faces with an even corner count
+// (primary; on a grid these are EBCOT's), then its face points and its faces' other edge points;
+// of a face point: the face points across its edges (primary), then its edge points.
+// Parents: the edge's endpoints, the face's corners (detail coefficients only).
+CodingLayout mesh_layout(const Hierarchy& hierarchy, double domain_area, int probes = 1);
+
+// The fixed-grid wavelet of a width x height plane (fixed_grid.h Mallat layout; grid_bands order).
+// Neighbours: the 8 around a coefficient inside its band, primary as in EBCOT: the horizontal
+// ones in LL and LH, the vertical ones in HL, the diagonal ones in HH. Parent: the coefficient of
+// the same orientation one level coarser.
+// Norms from centre impulses when `norms` (else 1, for decoders that read them).
+CodingLayout grid_layout(int width, int height, int levels, GridWavelet wavelet, bool norms = true);
+
+}  // namespace tesswave

@@ -1,0 +1,75 @@
+// The still-image codec (.twi, DESIGN.md 2.6): an image on a tessellation (or on the pixel
+// lattice, for comparisons), colour transform, wavelet transform, per-band quantization with
+// steps from the basis-function norms, and the embedded bit-plane coder. Any prefix of a file
+// after its header decodes to a coarser image.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "core/codec/twi_format.h"
+#include "core/math/image.h"
+#include "core/math/mesh.h"
+
+namespace tesswave {
+
+struct StillOptions {
+    TwiTransform transform = TwiTransform::mesh;
+    bool lossless = false;  // integer lifting and YCoCg-R; every bit-plane coded
+    // Rate control (lossy): at most max_bytes in all (0: no limit), or the smallest prefix whose
+    // decoded image reaches target_psnr dB (0: none; a target the whole stream misses keeps the
+    // whole stream and clears StillResult::target_reached). Without either the whole stream is
+    // kept.
+    int64_t max_bytes = 0;
+    double target_psnr = 0;
+    // Quantizer step for a band of unit norm, in units of the full pixel range; 0 picks one
+    // (fine enough for any budget, or about 6 dB beyond target_psnr).
+    double base_step = 0;
+    // Mesh path. `mesh` covers the image's pixel rectangle; without one, a grid mesh is made.
+    // `aligned` makes a grid mesh whose level-J vertices are the pixel centres (odd sizes only),
+    // so that sampling and rendering are exact.
+    Mesh mesh = {};
+    bool aligned = false;
+    int levels = 0;        // J (mesh) or decomposition levels (grid); 0: chosen
+    double density = 1.0;  // samples per pixel when J is chosen
+    int norm_probes = 1;   // impulses per band for the band norms
+    bool measure = true;   // decode the result once and report its PSNR
+    std::function<void(double done, const char* stage)> progress = {};
+};
+
+struct StillResult {
+    std::vector<uint8_t> file;
+    TwiHeader header;
+    double psnr = 0;             // of the decoded file against the input (NaN when not measured)
+    bool target_reached = true;  // false: target_psnr was out of reach, the whole stream is kept
+};
+
+// The quantizer step (StillOptions::base_step) whose quantization error alone is about `psnr` dB:
+// sqrt(12 * 10^(-psnr / 10)) of the full range (uniform error over a step: step^2 / 12).
+double step_for_psnr(double psnr);
+
+// J of a grid mesh over a width x height image at `density` samples a pixel: the shorter side
+// gets 8 to 16 T0 cells (J from 1 to 7). The still and video codecs' default.
+int default_mesh_levels(int width, int height, double density);
+
+// Throws Error for images or options the codec cannot take (with the reason).
+StillResult compress_image(const Image& image, const StillOptions& options);
+
+struct StillDecodeOptions {
+    size_t max_bytes = SIZE_MAX;  // decode only this prefix of the file
+    TwiLimits limits = {};
+};
+
+// Decodes a file or any prefix of it that holds the whole header; `name` prefixes messages.
+Image decompress_image(std::span<const uint8_t> file, const std::string& name,
+                       const StillDecodeOptions& options = {});
+
+// The mesh samples a lossless file holds, decoded (tests: the round trip of the samples is exact).
+std::vector<std::vector<int32_t>> decode_lossless_samples(std::span<const uint8_t> file);
+// The same samples taken from an image by the encoder's sampling.
+std::vector<std::vector<int32_t>> lossless_samples(const Image& image, const TwiHeader& header);
+
+}  // namespace tesswave

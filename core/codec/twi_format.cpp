@@ -1,0 +1,255 @@
+#include "core/codec/twi_format.h"
+
+#include <cmath>
+#include <limits>
+
+#include "core/codec/byte_io.h"
+#include "core/math/error.h"
+#include "core/math/fixed_grid.h"
+#include "core/math/grid_mesh.h"
+#include "core/math/hierarchy.h"
+#include "core/math/strings.h"
+#include "core/math/validate.h"
+
+namespace tesswave {
+namespace {
+
+constexpr uint8_t kMagic[4] = {'T', 'W', 'I', 0x1A};
+constexpr uint32_t kVersion = 1;
+constexpr double kVertexUnit = 256.0;
+constexpr int64_t kMaxCoordinate = int64_t{1} << 40;  // in vertex units, either sign
+
+void write_mesh(ByteWriter& w, const TwiHeader& h) {
+    w.u8(static_cast<uint8_t>(h.placement));
+    if (h.grid_cols > 0) {
+        w.u8(0);
+        w.varint(h.grid_cols);
+        w.varint(h.grid_rows);
+        return;
+    }
+    const Mesh& m = h.mesh;
+    w.u8(1);
+    w.varint(m.vertices.size());
+    int64_t px = 0, py = 0;
+    for (const Vec2& p : m.vertices) {
+        const int64_t x = std::llround(p.x * kVertexUnit), y = std::llround(p.y * kVertexUnit);
+        w.svarint(x - px);
+        w.svarint(y - py);
+        px = x;
+        py = y;
+    }
+    w.varint(m.num_faces());
+    int64_t prev = 0;
+    for (int f = 0; f < m.num_faces(); ++f) {
+        w.varint(m.face(f).size());
+        for (int32_t v : m.face(f)) {
+            w.svarint(v - prev);
+            prev = v;
+        }
+    }
+    w.varint(m.features.size());
+    for (const auto& e : m.features) {
+        w.varint(e[0]);
+        w.varint(e[1]);
+    }
+}
+
+// Adds a delta to a running value in [-bound, bound]; false when the sum leaves that range. The
+// delta is checked first, so that the sum cannot overflow whatever the file says.
+bool add_delta(int64_t& value, int64_t delta, int64_t bound) {
+    if (delta < -2 * bound || delta > 2 * bound) return false;
+    value += delta;
+    return value >= -bound && value <= bound;
+}
+
+// A count in [lo, hi] of items that take at least `bytes_each` bytes each: more than the bytes
+// that remain can hold means a cut file, and the message says so.
+int64_t fitting_count(ByteReader& r, const char* field, int64_t lo, int64_t hi,
+                      int64_t bytes_each) {
+    const int64_t n = r.count(field, lo, hi);
+    if (n > static_cast<int64_t>(r.remaining()) / bytes_each) {
+        r.fail(str("truncated: ", field, " ", n, " needs at least ", bytes_each,
+                   " bytes per item, ", r.remaining(), " remain"));
+    }
+    return n;
+}
+
+void read_mesh(ByteReader& r, TwiHeader& h, const TwiLimits& limits, const std::string& name) {
+    h.placement = static_cast<MeshPlacement>(r.count("mesh placement", 0, 1));
+    const double W = h.width, H = h.height;
+    const int kind = static_cast<int>(r.u8("mesh kind"));
+    if (kind == 0) {
+        h.grid_cols = static_cast<int>(r.count("grid columns", 1, h.width));
+        h.grid_rows = static_cast<int>(r.count("grid rows", 1, h.height));
+        if (int64_t{h.grid_cols} * h.grid_rows > limits.max_mesh_vertices) {
+            r.fail(str("a ", h.grid_cols, "x", h.grid_rows, " grid mesh exceeds the vertex limit"));
+        }
+        if (h.placement == MeshPlacement::centres) {
+            if (h.levels < 1) r.fail("a mesh on pixel centres needs J >= 1");
+            const int64_t cell = int64_t{1} << h.levels;
+            if (h.grid_cols != aligned_cells(h.width, h.levels) ||
+                h.grid_rows != aligned_cells(h.height, h.levels)) {
+                r.fail("grid size does not match the image for a mesh on pixel centres");
+            }
+            h.mesh = grid_mesh(h.grid_cols * cell, h.grid_rows * cell, h.grid_cols, h.grid_rows);
+        } else {
+            h.mesh = grid_mesh(W, H, h.grid_cols, h.grid_rows);
+        }
+    } else if (kind == 1) {
+        if (h.placement == MeshPlacement::centres) r.fail("a mesh on pixel centres must be a grid");
+        Mesh& m = h.mesh;
+        m.width = W;
+        m.height = H;
+        // Each vertex takes at least 2 bytes, each face at least 4 (count and 3 corners).
+        const int64_t nv = fitting_count(r, "vertex count", 3, limits.max_mesh_vertices, 2);
+        m.vertices.resize(nv);
+        int64_t x = 0, y = 0;
+        for (Vec2& p : m.vertices) {
+            if (!add_delta(x, r.svarint("vertex x"), kMaxCoordinate) ||
+                !add_delta(y, r.svarint("vertex y"), kMaxCoordinate)) {
+                r.fail("vertex coordinate out of range");
+            }
+            p = {x / kVertexUnit, y / kVertexUnit};
+        }
+        constexpr int64_t kMaxCount = std::numeric_limits<int32_t>::max();
+        const int64_t nf = fitting_count(r, "face count", 1, kMaxCount, 4);
+        int64_t prev = 0;
+        std::vector<int32_t> corners;
+        for (int64_t f = 0; f < nf; ++f) {
+            const int64_t k = fitting_count(r, "face corner count", 3, nv, 1);
+            corners.resize(k);
+            for (int32_t& c : corners) {
+                const int64_t delta = r.svarint("face corner");
+                if (delta <= -nv || delta >= nv || prev + delta < 0 || prev + delta >= nv) {
+                    r.fail(str("face ", f, ": corner id ", prev, " + ", delta, " out of range"));
+                }
+                prev += delta;
+                c = static_cast<int32_t>(prev);
+            }
+            m.add_face(corners);
+        }
+        const int64_t ne = fitting_count(r, "feature count", 0, kMaxCount, 2);
+        m.features.resize(ne);
+        for (auto& e : m.features) {
+            e[0] = static_cast<int32_t>(r.count("feature vertex", 0, nv - 1));
+            e[1] = static_cast<int32_t>(r.count("feature vertex", 0, nv - 1));
+        }
+        require_valid(m, name + ": mesh");
+    } else {
+        r.fail(str("unknown mesh kind ", kind));
+    }
+    const int64_t samples = sample_count(h.mesh, h.levels);
+    const double per_pixel_cap =
+        limits.max_samples_per_pixel * (static_cast<double>(h.width) * h.height) + (1 << 20);
+    if (samples > limits.max_samples || static_cast<double>(samples) > per_pixel_cap) {
+        r.fail(str("the mesh has ", samples, " samples at level ", h.levels, " (limit ",
+                   limits.max_samples, ", and ", limits.max_samples_per_pixel, " a pixel)"));
+    }
+}
+
+}  // namespace
+
+void round_mesh_vertices(Mesh& mesh) {
+    for (Vec2& p : mesh.vertices) {
+        p = {std::round(p.x * kVertexUnit) / kVertexUnit,
+             std::round(p.y * kVertexUnit) / kVertexUnit};
+    }
+}
+
+int aligned_cells(int pixels, int levels) {
+    return std::max(
+        1, static_cast<int>(((int64_t{pixels} - 1 + (int64_t{1} << levels) - 1) >> levels)));
+}
+
+int expected_bands(const TwiHeader& h) {
+    if (h.transform == TwiTransform::mesh) return 1 + 2 * h.levels;
+    return static_cast<int>(grid_bands(h.width, h.height, h.levels).size());
+}
+
+std::vector<uint8_t> write_twi_header(const TwiHeader& h) {
+    ByteWriter w;
+    for (uint8_t b : kMagic) w.u8(b);
+    w.u8(kVersion);
+    w.u8(h.lossless ? 1 : 0);
+    w.u8(static_cast<uint8_t>(h.transform));
+    w.u8(static_cast<uint8_t>(h.colour));
+    w.u8(h.channels);
+    w.u8(h.bit_depth);
+    w.varint(h.width);
+    w.varint(h.height);
+    w.u8(h.levels);
+    if (h.transform == TwiTransform::mesh) write_mesh(w, h);
+    w.f32(h.base_step);
+    for (float f : h.channel_factors) w.f32(f);
+    w.varint(h.band_norms.size());
+    for (size_t b = 0; b < h.band_norms.size(); ++b) {
+        w.f32(h.band_norms[b]);
+        w.u8(h.shifts[b]);
+    }
+    for (const auto& channel : h.planes) {
+        for (uint8_t n : channel) w.u8(n);
+    }
+    w.u32(crc32(w.data()));
+    return std::move(w.data());
+}
+
+TwiHeader read_twi_header(std::span<const uint8_t> file, const std::string& name,
+                          const TwiLimits& limits) {
+    ByteReader r(file, name);
+    if (file.size() < 4 || !std::equal(kMagic, kMagic + 4, file.begin())) {
+        r.fail("not a .twi file (bad magic)");
+    }
+    r.bytes(4, "magic");
+    TwiHeader h;
+    if (r.u8("version") != kVersion) r.fail("unsupported .twi version");
+    const uint32_t flags = r.u8("flags");
+    if (flags > 1) r.fail(str("unknown flags ", flags));
+    h.lossless = flags & 1;
+    h.transform = static_cast<TwiTransform>(r.u8("transform"));
+    if (static_cast<int>(h.transform) > 2) r.fail("unknown transform");
+    const uint32_t colour = r.u8("colour");
+    if (colour > 2) r.fail("unknown colour transform");
+    h.colour = static_cast<TwiColour>(colour);
+    h.channels = static_cast<int>(r.u8("channels"));
+    if (h.channels < 1 || h.channels > 4) r.fail(str(h.channels, " channels (1 to 4 allowed)"));
+    if (h.colour != TwiColour::none && h.channels < 3) r.fail("colour transform needs 3 channels");
+    h.bit_depth = static_cast<int>(r.u8("bit depth"));
+    if (h.bit_depth != 8 && h.bit_depth != 16) r.fail(str("bit depth ", h.bit_depth));
+    h.width = static_cast<int>(r.count("width", 1, 1 << 20));
+    h.height = static_cast<int>(r.count("height", 1, 1 << 20));
+    if (int64_t{h.width} * h.height > limits.max_pixels) {
+        r.fail(str(h.width, "x", h.height, " pixels exceed the limit of ", limits.max_pixels));
+    }
+    h.levels = static_cast<int>(r.u8("levels"));
+    if (h.levels > (h.transform == TwiTransform::mesh ? 12 : 20)) r.fail("too many levels");
+    if (h.transform == TwiTransform::mesh) read_mesh(r, h, limits, name);
+    h.base_step = r.f32("base step");
+    if (!(h.base_step > 0)) r.fail("the base step must be positive");
+    for (int c = 0; c < h.channels; ++c) {
+        h.channel_factors.push_back(r.f32("channel step factor"));
+        if (!(h.channel_factors.back() > 0)) r.fail("channel step factors must be positive");
+    }
+    const int bands = expected_bands(h);
+    if (r.varint("band count") != static_cast<uint64_t>(bands)) {
+        r.fail(str("band count does not match the transform (", bands, " expected)"));
+    }
+    for (int b = 0; b < bands; ++b) {
+        h.band_norms.push_back(r.f32("band norm"));
+        if (!(h.band_norms.back() > 0)) r.fail("band norms must be positive");
+        h.shifts.push_back(static_cast<int>(r.u8("band shift")));
+        if (h.shifts.back() > 32) r.fail("band shift above 32");
+    }
+    h.planes.assign(h.channels, std::vector<uint8_t>(bands));
+    for (auto& channel : h.planes) {
+        for (uint8_t& n : channel) {
+            n = static_cast<uint8_t>(r.u8("bit-plane count"));
+            if (n > 31) r.fail("bit-plane count above 31");
+        }
+    }
+    const uint32_t expected = crc32(file.first(r.position()));
+    if (r.u32("header CRC") != expected) r.fail("header CRC mismatch (corrupted file)");
+    h.header_bytes = r.position();
+    return h;
+}
+
+}  // namespace tesswave

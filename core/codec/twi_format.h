@@ -1,0 +1,77 @@
+// The .twi still-image file: a header (fields below, CRC-32 protected) followed by the embedded
+// bit-plane stream, which runs to the end of the file. Any cut of the stream is a valid file.
+//
+//   magic "TWI" 0x1A | version u8 | flags u8 (bit 0 lossless) | transform u8 (0 mesh, 1 grid 5/3,
+//   2 grid 9/7) | colour u8 (0 none, 1 YCbCr, 2 YCoCg-R) | channels u8 | bit depth u8 |
+//   width, height varint | levels u8 |
+//   mesh path only: placement u8 (0 domain = pixel rectangle, 1 vertices on pixel centres, a
+//     grid whose size follows from the image and J) |
+//     mesh kind u8: 0 grid (columns, rows varint) or 1 explicit (vertex count, coordinates as
+//     zigzag varint deltas in 1/256 pixel; face count, per face its corner count and zigzag
+//     varint deltas of the corner ids; feature count, feature edges as corner-id pairs) |
+//   base step f32 | per channel: step factor f32 | band count varint | per band: norm f32 and
+//   plane shift u8 | per channel and band: bit-planes u8 | CRC-32 of all the bytes above u32
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "core/codec/bitplane.h"
+#include "core/math/mesh.h"
+
+namespace tesswave {
+
+enum class TwiTransform : uint8_t { mesh = 0, grid53 = 1, grid97 = 2 };
+enum class TwiColour : uint8_t { none = 0, ycbcr = 1, ycocg_r = 2 };
+enum class MeshPlacement : uint8_t { area = 0, centres = 1 };
+
+struct TwiHeader {
+    TwiTransform transform = TwiTransform::mesh;
+    bool lossless = false;
+    TwiColour colour = TwiColour::none;
+    int channels = 1, bit_depth = 8, width = 0, height = 0, levels = 0;
+    // Mesh path: the T0 mesh. Area placement: over the pixel rectangle [0,W]x[0,H]. Centres: a
+    // grid whose level-J vertices are the pixel centres, mesh point (x, y) at pixel (x, y); its
+    // domain [0, c 2^J] x [0, r 2^J] reaches past the last pixel by less than 2^J (samples there
+    // repeat the edge pixels and are dropped when rendering).
+    MeshPlacement placement = MeshPlacement::area;
+    int grid_cols = 0, grid_rows = 0;  // > 0: the mesh is grid_mesh(...) and stored as such
+    Mesh mesh;
+    float base_step = 1.0f;
+    std::vector<float> channel_factors;  // per channel
+    std::vector<float> band_norms;       // per band of the coding layout
+    std::vector<int> shifts;             // per band
+    PlaneCounts planes;                  // [channel][band]
+    size_t header_bytes = 0;             // set by read_twi_header
+};
+
+// Decoding takes about 100 bytes a pixel (grid) or a mesh sample, so the defaults bound a
+// header's claims to a few GB: 2^26 pixels (e.g. 8192 x 8192), and mesh samples at most 50 M and
+// at most 20 a pixel (plus 2^20 for tiny images; the encoder offers up to 16).
+struct TwiLimits {
+    int64_t max_pixels = int64_t{1} << 26;
+    int64_t max_samples = 50'000'000;  // mesh samples of T_J
+    double max_samples_per_pixel = 20;
+    int max_mesh_vertices = 1'000'000;
+};
+
+// Quantizes explicit mesh vertices to the file's 1/256-pixel grid (the encoder codes the mesh the
+// decoder will see).
+void round_mesh_vertices(Mesh& mesh);
+
+std::vector<uint8_t> write_twi_header(const TwiHeader& header);
+
+// Reads and checks the header; `name` prefixes messages. The mesh is validated, and the sizes
+// are checked against the limits before anything is allocated for them.
+TwiHeader read_twi_header(std::span<const uint8_t> file, const std::string& name,
+                          const TwiLimits& limits = {});
+
+// The number of coding bands the header's transform has (1 + 2 J for the mesh).
+int expected_bands(const TwiHeader& header);
+
+// Columns (rows) of the grid on pixel centres: ceil((pixels - 1) / 2^J), at least 1.
+int aligned_cells(int pixels, int levels);
+
+}  // namespace tesswave

@@ -1,0 +1,25 @@
+// Pictures side by side with a caption under each (comparisons at equal rate, in-between frames
+// beside their truth): one RGB image, tiles in a row-major grid.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "core/math/image.h"
+
+namespace tesswave {
+
+struct ContactSheetOptions {
+    int columns = 0;  // 0: all in one row
+    int gap = 8;      // pixels between tiles and around the sheet
+};
+
+// Every tile is drawn at its own size in a cell as large as the largest tile; grey images are
+// shown as grey, alpha is dropped. Throws Error for an empty list or mismatched caption count.
+Image contact_sheet(const std::vector<Image>& tiles, const std::vector<std::string>& captions,
+                    const ContactSheetOptions& options = {});
+
+// The centred crop of at most width x height pixels.
+Image centre_crop(const Image& image, int width, int height);
+
+}  // namespace tesswave

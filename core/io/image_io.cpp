@@ -1,0 +1,123 @@
+#include "core/io/image_io.h"
+
+#include <OpenImageIO/imagebuf.h>
+#include <OpenImageIO/imageio.h>
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+#include "core/io/file_io.h"
+#include "core/math/error.h"
+#include "core/math/strings.h"
+
+namespace tesswave {
+namespace {
+
+// libpng reports decode errors on stderr by itself as well as through OpenImageIO; the library
+// never prints, so stderr is pointed at /dev/null while a file is decoded (the error still comes
+// back through OpenImageIO and is reported by the caller).
+class QuietStderr {
+  public:
+    QuietStderr() {
+        std::fflush(stderr);
+        saved_ = ::dup(2);
+        const int null = ::open("/dev/null", O_WRONLY);
+        if (saved_ >= 0 && null >= 0) ::dup2(null, 2);
+        if (null >= 0) ::close(null);
+    }
+    ~QuietStderr() {
+        std::fflush(stderr);
+        if (saved_ >= 0) {
+            ::dup2(saved_, 2);
+            ::close(saved_);
+        }
+    }
+    QuietStderr(const QuietStderr&) = delete;
+    QuietStderr& operator=(const QuietStderr&) = delete;
+
+  private:
+    int saved_ = -1;
+};
+
+}  // namespace
+
+Image read_image(const std::string& path, const ImageLimits& limits) {
+    QuietStderr quiet;
+    // Alpha stays as stored (straight): no premultiplication on the way in or out.
+    OIIO::ImageSpec config;
+    config.attribute("oiio:UnassociatedAlpha", 1);
+    auto in = OIIO::ImageInput::open(path, &config);
+    if (!in) {
+        std::string why = OIIO::geterror();
+        throw Error(str(path, ": cannot read image (", why.empty() ? "unknown format" : why, ")"));
+    }
+    const OIIO::ImageSpec& spec = in->spec();
+    if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0) {
+        throw Error(path + ": image has no pixels");
+    }
+    if (int64_t{spec.width} * spec.height > limits.max_pixels) {
+        throw Error(str(path, ": ", spec.width, "x", spec.height, " exceeds the limit of ",
+                        limits.max_pixels, " pixels"));
+    }
+    const int channels = std::min(spec.nchannels, limits.max_channels);
+    const SampleFormat format = spec.format == OIIO::TypeDesc::UINT8            ? SampleFormat::u8
+                                : spec.format == OIIO::TypeDesc::UINT16         ? SampleFormat::u16
+                                : spec.format.basetype == OIIO::TypeDesc::UINT8 ? SampleFormat::u8
+                                                                                : SampleFormat::f32;
+    std::vector<float> pixels(static_cast<size_t>(spec.width) * spec.height * channels);
+    if (!in->read_image(0, 0, 0, channels, OIIO::TypeDesc::FLOAT, pixels.data())) {
+        throw Error(str(path, ": cannot decode image (", in->geterror(), ")"));
+    }
+    Image image = make_image(spec.width, spec.height, channels, format);
+    const size_t n = static_cast<size_t>(spec.width) * spec.height;
+    for (size_t i = 0; i < n; ++i) {
+        for (int c = 0; c < channels; ++c) {
+            const float v = pixels[i * channels + c];
+            image.planes[c][i] = std::isfinite(v) ? v : 0.0f;
+        }
+    }
+    return image;
+}
+
+void write_image(const Image& image, const std::string& path) {
+    const int channels = image.channels();
+    if (image.width <= 0 || image.height <= 0 || channels <= 0) {
+        throw Error(path + ": nothing to write (empty image)");
+    }
+    const std::string tmp = temporary_name(path);
+    auto out = OIIO::ImageOutput::create(path);
+    if (!out)
+        throw Error(str(path, ": no image writer for this file name (", OIIO::geterror(), ")"));
+    OIIO::TypeDesc type = image.format == SampleFormat::u16   ? OIIO::TypeDesc::UINT16
+                          : image.format == SampleFormat::f32 ? OIIO::TypeDesc::FLOAT
+                                                              : OIIO::TypeDesc::UINT8;
+    if (type == OIIO::TypeDesc::FLOAT && !out->supports("floatformat")) {
+        type = OIIO::TypeDesc::UINT16;
+    }
+    OIIO::ImageSpec spec(image.width, image.height, channels, type);
+    if (channels == 2 || channels == 4) {
+        spec.alpha_channel = channels - 1;
+        spec.attribute("oiio:UnassociatedAlpha", 1);
+    }
+    const size_t n = static_cast<size_t>(image.width) * image.height;
+    std::vector<float> pixels(n * channels);
+    const bool clamp = type != OIIO::TypeDesc::FLOAT;
+    for (size_t i = 0; i < n; ++i) {
+        for (int c = 0; c < channels; ++c) {
+            const float v = image.planes[c][i];
+            pixels[i * channels + c] = clamp ? std::clamp(v, 0.0f, 1.0f) : v;
+        }
+    }
+    if (!out->open(tmp, spec) || !out->write_image(OIIO::TypeDesc::FLOAT, pixels.data()) ||
+        !out->close()) {
+        const std::string why = out->geterror();
+        discard_temporary(tmp);
+        throw Error(str(path, ": cannot write image (", why, ")"));
+    }
+    commit_temporary(tmp, path);
+}
+
+}  // namespace tesswave

@@ -1,0 +1,152 @@
+#include "core/math/render.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "core/math/error.h"
+#include "core/math/parametrization.h"
+#include "core/math/strings.h"
+
+namespace tesswave {
+namespace {
+
+// x where the line y = yc crosses edge (a, b), the endpoints ordered so that both faces sharing
+// the edge compute the very same number.
+double crossing(Vec2 a, Vec2 b, double yc) {
+    if (a.y > b.y || (a.y == b.y && a.x > b.x)) std::swap(a, b);
+    return a.x + (b.x - a.x) * ((yc - a.y) / (b.y - a.y));
+}
+
+// The pixel columns [first, last) of row k whose centres lie in the convex quad q (pixel units).
+// Edges are half-open in y ([ymin, ymax)), spans half-open in x: shared edges go to one side.
+bool row_span(const Quad& q, double yc, int& first, int& last) {
+    double xl = INFINITY, xr = -INFINITY;
+    int hits = 0;
+    for (int s = 0; s < 4; ++s) {
+        const Vec2 a = q[s], b = q[(s + 1) % 4];
+        const double y0 = std::min(a.y, b.y), y1 = std::max(a.y, b.y);
+        if (!(yc >= y0 && yc < y1)) continue;
+        const double x = crossing(a, b, yc);
+        xl = std::min(xl, x);
+        xr = std::max(xr, x);
+        ++hits;
+    }
+    if (hits < 2) return false;
+    first = static_cast<int>(std::ceil(xl - 0.5));
+    last = static_cast<int>(std::ceil(xr - 0.5));
+    return last > first;
+}
+
+}  // namespace
+
+RenderPlan plan_render(const Hierarchy& h, std::span<const Vec2> mesh_vertices, double W, double H,
+                       int width, int height, const RenderOptions& options) {
+    const int level = options.level < 0 ? h.finest() : options.level;
+    if (level < 1 || level > h.finest()) {
+        throw Error(str("render: level ", level, " is outside 1..", h.finest()));
+    }
+    if (width < 1 || height < 1 || int64_t{width} * height > 400'000'000) {
+        throw Error(str("render: output size ", width, "x", height, " is out of range"));
+    }
+    const LevelTopology& t = h.levels[level];
+    const int32_t m = t.patch_cells, side = m + 1;
+    const double sx = width / W, sy = height / H;
+    const std::vector<Quad> quads = t1_quads(h, mesh_vertices);
+    RenderPlan plan;
+    plan.width = width;
+    plan.height = height;
+    plan.level = level;
+    plan.samples = t.n_vertices;
+    plan.cells = m;
+    plan.grid.assign(t.patch_grid.begin(), t.patch_grid.end());
+    const size_t pixels = static_cast<size_t>(width) * height;
+    plan.cell.reserve(pixels);
+    plan.st.reserve(pixels);
+    plan.writes.assign(pixels, 0);
+    plan.quad_runs.push_back(0);
+    for (Quad q : quads) {
+        for (Vec2& c : q) c = {c.x * sx, c.y * sy};
+        double y0 = q[0].y, y1 = q[0].y;
+        for (const Vec2& c : q) y0 = std::min(y0, c.y), y1 = std::max(y1, c.y);
+        const int k0 = std::max(0, static_cast<int>(std::ceil(y0 - 0.5)));
+        const int k1 = std::min(height, static_cast<int>(std::ceil(y1 - 0.5)));
+        for (int k = k0; k < k1; ++k) {
+            int first, last;
+            if (!row_span(q, k + 0.5, first, last)) continue;
+            first = std::max(first, 0);
+            last = std::min(last, width);
+            if (last <= first) continue;
+            plan.run_start.push_back(k * width + first);
+            plan.run_length.push_back(last - first);
+            for (int i = first; i < last; ++i) {
+                const UV uv = inverse_bilinear(q, {i + 0.5, k + 0.5});
+                const double s = uv.u * m, r = uv.v * m;
+                const int32_t c0 = std::min(static_cast<int32_t>(s), m - 1);
+                const int32_t r0 = std::min(static_cast<int32_t>(r), m - 1);
+                const int32_t px = k * width + i;
+                plan.cell.push_back(r0 * side + c0);
+                auto fixed = [](double f) {
+                    return static_cast<uint16_t>(std::min(65535.0, std::round(f * 65536.0)));
+                };
+                plan.st.push_back({fixed(s - c0), fixed(r - r0)});
+                ++plan.writes[px];
+            }
+        }
+        plan.quad_runs.push_back(static_cast<int32_t>(plan.run_start.size()));
+    }
+    return plan;
+}
+
+Image render(const RenderPlan& plan, std::span<const std::span<const float>> planes,
+             SampleFormat format) {
+    Image out = make_image(plan.width, plan.height, static_cast<int>(planes.size()), format);
+    render_into(plan, planes, out);
+    return out;
+}
+
+void render_into(const RenderPlan& plan, std::span<const std::span<const float>> planes,
+                 Image& out) {
+    if (out.width != plan.width || out.height != plan.height ||
+        out.planes.size() != planes.size()) {
+        throw Error(str("render: output image is ", out.width, "x", out.height, " with ",
+                        out.planes.size(), " planes; the plan is ", plan.width, "x", plan.height,
+                        " for ", planes.size(), " planes"));
+    }
+    for (size_t c = 0; c < planes.size(); ++c) {
+        if (planes[c].size() < static_cast<size_t>(plan.samples)) {
+            throw Error(str("render: plane ", c, " has ", planes[c].size(), " values, level ",
+                            plan.level, " has ", plan.samples, " samples"));
+        }
+    }
+    const int32_t side = plan.cells + 1, grid_size = side * side;
+    const size_t channels = planes.size(), quads = plan.quad_runs.size() - 1;
+    // One quad at a time: its grid values of every channel staged side by side, then its pixel
+    // runs read their plan entries once and interpolate all channels from the staged grids.
+    std::vector<float> local(grid_size * channels);
+    std::vector<float*> outs(channels);
+    for (size_t c = 0; c < channels; ++c) outs[c] = out.planes[c].data();
+    constexpr float kUnit = 1.0f / 65536.0f;
+    size_t i = 0;  // plan entry of the next pixel
+    for (size_t q = 0; q < quads; ++q) {
+        const int32_t* ids = &plan.grid[q * grid_size];
+        for (size_t c = 0; c < channels; ++c) {
+            const float* __restrict x = planes[c].data();
+            float* __restrict g = local.data() + c * grid_size;
+            for (int32_t k = 0; k < grid_size; ++k) g[k] = x[ids[k]];
+        }
+        for (int32_t run = plan.quad_runs[q]; run < plan.quad_runs[q + 1]; ++run) {
+            const int32_t start = plan.run_start[run], length = plan.run_length[run];
+            for (int32_t n = 0; n < length; ++n, ++i) {
+                const float s = plan.st[i][0] * kUnit, r = plan.st[i][1] * kUnit;
+                const float* v = local.data() + plan.cell[i];
+                for (size_t c = 0; c < channels; ++c, v += grid_size) {
+                    const float top = v[0] + (v[1] - v[0]) * s;
+                    const float bottom = v[side] + (v[side + 1] - v[side]) * s;
+                    outs[c][start + n] = top + (bottom - top) * r;
+                }
+            }
+        }
+    }
+}
+
+}  // namespace tesswave

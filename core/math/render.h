@@ -1,0 +1,55 @@
+// Rendering a function on T_j to pixels (DESIGN.md 2.5). Each T1 quad is rasterized (pixel
+// centres, half-open top-left rule, so every pixel belongs to exactly one quad), the pixel's (u,v)
+// comes from the inverse bilinear map, and the value is the bilinear interpolation of the four
+// level-j grid samples around (u m, v m). The result is C0 across quads: on a shared edge both
+// sides interpolate the same edge samples.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "core/math/hierarchy.h"
+#include "core/math/image.h"
+
+namespace tesswave {
+
+// Where each pixel reads from: a plan for one geometry, level and output size, applied to any
+// number of planes (like the maps of cv::remap). Pixels are grouped by T1 quad, so rendering
+// stages one quad's grid of values at a time and interpolates its pixels from that small buffer.
+struct RenderPlan {
+    int width = 0, height = 0, level = 0;
+    int32_t samples = 0;        // of the level: every plane needs at least this many values
+    int32_t cells = 0;          // m, cells a quad side
+    std::vector<int32_t> grid;  // the level's patch grids, (m+1)^2 sample ids a quad
+    // Pixels of a quad as row runs: run k covers pixels [run_start[k], run_start[k] +
+    // run_length[k]) of the output, in order; quad q owns runs [quad_runs[q], quad_runs[q+1]).
+    std::vector<int32_t> quad_runs;
+    std::vector<int32_t> run_start, run_length;
+    // Per pixel, in run order: the grid cell r (m+1) + c it lies in, and its fractions along c
+    // and r in 16-bit fixed point (units of 2^-16; error below 2^-17 of a cell).
+    std::vector<int32_t> cell;
+    std::vector<std::array<uint16_t, 2>> st;
+    std::vector<uint8_t> writes;  // per output pixel: how many quads claimed it (always 1)
+};
+
+struct RenderOptions {
+    int level = -1;  // -1: the finest level of the hierarchy
+};
+
+// Output pixel (i, k) has its centre at ((i + 1/2) W / width, (k + 1/2) H / height) of the
+// domain [0,W]x[0,H]. Throws Error for sizes out of range.
+RenderPlan plan_render(const Hierarchy& hierarchy, std::span<const Vec2> mesh_vertices,
+                       double domain_width, double domain_height, int width, int height,
+                       const RenderOptions& options = {});
+
+// One output plane per input plane; each input plane holds at least the level's samples.
+Image render(const RenderPlan& plan, std::span<const std::span<const float>> planes,
+             SampleFormat format = SampleFormat::u8);
+
+// The same into an image of the plan's size with one plane per input plane (reused buffers).
+void render_into(const RenderPlan& plan, std::span<const std::span<const float>> planes,
+                 Image& out);
+
+}  // namespace tesswave

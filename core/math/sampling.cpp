@@ -1,0 +1,163 @@
+#include "core/math/sampling.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "core/math/error.h"
+#include "core/math/mesh.h"
+#include "core/math/parametrization.h"
+#include "core/math/strings.h"
+
+namespace tesswave {
+namespace {
+
+// 2x2 box averages of `src`; the last row or column of an odd size is repeated.
+Image half_size(const Image& src) {
+    const int w = (src.width + 1) / 2, h = (src.height + 1) / 2;
+    Image dst = make_image(w, h, src.channels(), src.format);
+    for (int c = 0; c < src.channels(); ++c) {
+        for (int y = 0; y < h; ++y) {
+            const int ya = 2 * y, yb = std::min(2 * y + 1, src.height - 1);
+            for (int x = 0; x < w; ++x) {
+                const int xa = 2 * x, xb = std::min(2 * x + 1, src.width - 1);
+                dst.at(c, x, y) = 0.25f * (src.at(c, xa, ya) + src.at(c, xb, ya) +
+                                           src.at(c, xa, yb) + src.at(c, xb, yb));
+            }
+        }
+    }
+    return dst;
+}
+
+// Bilinear weights of one position on a pyramid level, shared by all channels.
+struct Tap {
+    size_t i00, i01, i10, i11;
+    float tx, ty;
+};
+
+inline Tap tap(int w, int h, double inv_size, Vec2 p) {
+    const double fx = std::clamp(p.x * inv_size - 0.5, 0.0, w - 1.0);
+    const double fy = std::clamp(p.y * inv_size - 0.5, 0.0, h - 1.0);
+    const int x0 = std::min(static_cast<int>(fx), std::max(w - 2, 0));
+    const int y0 = std::min(static_cast<int>(fy), std::max(h - 2, 0));
+    const int x1 = std::min(x0 + 1, w - 1), y1 = std::min(y0 + 1, h - 1);
+    return {static_cast<size_t>(y0) * w + x0, static_cast<size_t>(y0) * w + x1,
+            static_cast<size_t>(y1) * w + x0, static_cast<size_t>(y1) * w + x1,
+            static_cast<float>(fx - x0),      static_cast<float>(fy - y0)};
+}
+
+inline float apply(const Tap& t, const float* plane) {
+    const float top = plane[t.i00] + (plane[t.i01] - plane[t.i00]) * t.tx;
+    const float bottom = plane[t.i10] + (plane[t.i11] - plane[t.i10]) * t.tx;
+    return top + (bottom - top) * t.ty;
+}
+
+}  // namespace
+
+std::vector<std::vector<float>> sample_bilinear(const Image& image,
+                                                std::span<const Vec2> positions) {
+    std::vector<std::vector<float>> out(image.channels(), std::vector<float>(positions.size()));
+    for (size_t i = 0; i < positions.size(); ++i) {
+        const Tap t = tap(image.width, image.height, 1.0, positions[i]);  // level 0: size 1
+        for (int c = 0; c < image.channels(); ++c) out[c][i] = apply(t, image.planes[c].data());
+    }
+    return out;
+}
+
+std::vector<std::vector<float>> sample_image(const Image& image, const Hierarchy& h,
+                                             std::span<const Vec2> mesh_vertices,
+                                             const SampleOptions& options) {
+    const int level = options.level < 0 ? h.finest() : options.level;
+    if (level < 1 || level > h.finest()) {
+        throw Error(str("sampling: level ", level, " is outside 1..", h.finest()));
+    }
+    std::vector<std::vector<float>> out(image.channels(),
+                                        std::vector<float>(h.levels[level].n_vertices));
+    const std::vector<std::span<float>> spans(out.begin(), out.end());
+    sample_image_into(image, h, mesh_vertices, spans, options);
+    return out;
+}
+
+void sample_image_into(const Image& image, const Hierarchy& h, std::span<const Vec2> mesh_vertices,
+                       std::span<const std::span<float>> out, const SampleOptions& options) {
+    const int level = options.level < 0 ? h.finest() : options.level;
+    if (level < 1 || level > h.finest()) {
+        throw Error(str("sampling: level ", level, " is outside 1..", h.finest()));
+    }
+    const LevelTopology& t = h.levels[level];
+    const int channels = image.channels();
+    if (out.size() != static_cast<size_t>(channels)) {
+        throw Error(str("sampling: ", out.size(), " output planes for ", channels, " channels"));
+    }
+    for (auto plane : out) {
+        if (plane.size() != static_cast<size_t>(t.n_vertices)) {
+            throw Error(str("sampling: an output plane has ", plane.size(), " values, level ",
+                            level, " has ", t.n_vertices, " samples"));
+        }
+    }
+    const int32_t m = t.patch_cells, side = m + 1;
+    const std::vector<Quad> quads = t1_quads(h, mesh_vertices);
+    // Pyramid levels are built only as deep as the largest cells need (none when every cell is
+    // at most a pixel); level 0 is the image itself.
+    double largest = 0;
+    for (const Quad& q : quads)
+        largest = std::max(largest, std::sqrt(std::abs(signed_area(q))) / m);
+    std::vector<Image> mips;
+    const Image* level0 = &image;
+    if (options.prefilter && largest > 1.0) {
+        const int needed = static_cast<int>(std::ceil(std::log2(largest)));
+        for (int l = 0; l < needed && (mips.empty() ? image : mips.back()).width > 1; ++l) {
+            mips.push_back(half_size(mips.empty() ? image : mips.back()));
+        }
+    }
+    auto pyramid = [&](int l) -> const Image& { return l == 0 ? *level0 : mips[l - 1]; };
+    const int top = static_cast<int>(mips.size());
+    // Quad by quad along its grid rows, so that image reads stay local. Grid node (r, c) is the
+    // bilinear map at (c/m, r/m): the position refinement gives it (DESIGN.md 2.2).
+    for (size_t p = 0; p < quads.size(); ++p) {
+        const Quad& q = quads[p];
+        const double size = std::sqrt(std::abs(signed_area(q))) / m;
+        const double lod =
+            top == 0 ? 0.0 : std::clamp(std::log2(std::max(1.0, size)), 0.0, double(top));
+        const int l0 = static_cast<int>(lod), l1 = std::min(l0 + 1, top);
+        const float w1 = static_cast<float>(lod - l0);
+        const Image& a = pyramid(l0);
+        const Image& b = pyramid(l1);
+        const double inv_a = std::ldexp(1.0, -l0), inv_b = std::ldexp(1.0, -l1);
+        const int32_t* grid = &t.patch_grid[p * side * side];
+        for (int32_t r = 0; r <= m; ++r) {
+            const Vec2 left = lerp(q[0], q[3], double(r) / m);
+            const Vec2 right = lerp(q[1], q[2], double(r) / m);
+            for (int32_t c = 0; c <= m; ++c) {
+                const Vec2 pos = lerp(left, right, double(c) / m);
+                const int32_t id = grid[r * side + c];
+                const Tap ta = tap(a.width, a.height, inv_a, pos);
+                if (w1 == 0) {
+                    for (int ch = 0; ch < channels; ++ch)
+                        out[ch][id] = apply(ta, a.planes[ch].data());
+                } else {
+                    const Tap tb = tap(b.width, b.height, inv_b, pos);
+                    for (int ch = 0; ch < channels; ++ch) {
+                        const float va = apply(ta, a.planes[ch].data());
+                        out[ch][id] = va + (apply(tb, b.planes[ch].data()) - va) * w1;
+                    }
+                }
+            }
+        }
+    }
+}
+
+int level_for_density(const Mesh& mesh, int pixels, double density, int max_level) {
+    if (!(density > 0) || !std::isfinite(density)) {
+        throw Error(str("density: ", density, " must be a positive number of samples per pixel"));
+    }
+    const auto counts = level_counts(mesh, max_level);
+    int best = 1;
+    double best_gap = INFINITY;
+    for (int j = 1; j <= max_level; ++j) {
+        const double gap = std::abs(std::log(counts[j].vertices / (density * pixels)));
+        if (gap < best_gap) best = j, best_gap = gap;
+    }
+    return best;
+}
+
+}  // namespace tesswave

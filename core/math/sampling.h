@@ -1,0 +1,41 @@
+// Sampling an image at the vertex positions of T_j (DESIGN.md 2.5): bilinear in the pixel grid,
+// with pixel (i,k)'s value at its centre (i+1/2, k+1/2) and edges clamped. Where the mesh is
+// coarser than the pixels (a T_j cell spans more than one pixel) the image is prefiltered: it is
+// read from a mip pyramid of 2x2 box averages at the level matching the cell's size, blending the
+// two nearest pyramid levels (trilinear), so coarse meshes average instead of aliasing.
+#pragma once
+
+#include <span>
+#include <vector>
+
+#include "core/math/geometry.h"
+#include "core/math/hierarchy.h"
+#include "core/math/image.h"
+
+namespace tesswave {
+
+// Plain bilinear lookups, one plane per image channel, one value per position.
+std::vector<std::vector<float>> sample_bilinear(const Image& image,
+                                                std::span<const Vec2> positions);
+
+struct SampleOptions {
+    int level = -1;         // -1: the finest level
+    bool prefilter = true;  // mip-mapped where cells are larger than a pixel
+};
+
+// The image at every sample of the level; the mesh domain is taken to be the image's pixel
+// rectangle (callers check or scale it). Returns one plane per channel.
+std::vector<std::vector<float>> sample_image(const Image& image, const Hierarchy& hierarchy,
+                                             std::span<const Vec2> mesh_vertices,
+                                             const SampleOptions& options = {});
+
+// The same into caller-owned planes (one per channel, each the level's sample count), so that
+// repeated sampling (video frames) reuses its buffers.
+void sample_image_into(const Image& image, const Hierarchy& hierarchy,
+                       std::span<const Vec2> mesh_vertices, std::span<const std::span<float>> out,
+                       const SampleOptions& options = {});
+
+// The level whose sample count is closest (in ratio) to `density` samples per pixel.
+int level_for_density(const Mesh& mesh, int pixels, double density, int max_level = 12);
+
+}  // namespace tesswave

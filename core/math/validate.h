@@ -1,0 +1,30 @@
+// Validation of a tessellation T0 against every rule of DESIGN.md 2.1. Each problem names the
+// element (vertex, face, edge, feature) and the rule it breaks; nothing is ever repaired.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "core/math/mesh.h"
+
+namespace tesswave {
+
+// The supported domain size, in pixels a side.
+constexpr double kMinDomain = 1e-3;
+constexpr double kMaxDomain = 1e8;
+
+struct ValidationReport {
+    std::vector<std::string> problems;  // one line each, e.g. "face 3: not convex at corner 2 ..."
+    bool ok() const { return problems.empty(); }
+};
+
+struct ValidateOptions {
+    size_t max_problems = 20;  // stop collecting after this many
+};
+
+ValidationReport validate(const Mesh& mesh, const ValidateOptions& options = {});
+
+// Throws Error("<what>: <first problem>") unless the mesh is valid.
+void require_valid(const Mesh& mesh, const std::string& what);
+
+}  // namespace tesswave
