@@ -386,7 +386,9 @@ void collect_features(const Field& field, const Candidates& c, Collector& collec
 
 }  // namespace
 
-Matches auto_match(const Image& a, const Image& b, const AutoMatchOptions& options) {
+namespace {
+
+Matches match(const Image& a, const Image& b, const AutoMatchOptions& options) {
     check_inputs(a, b, options);
     const auto report = [&](double done, const char* stage) {
         if (options.progress) options.progress(done, stage);
@@ -425,6 +427,12 @@ Matches auto_match(const Image& a, const Image& b, const AutoMatchOptions& optio
     }
     report(1.0, "done");
     return matches;
+}
+
+}  // namespace
+
+Matches auto_match(const Image& a, const Image& b, const AutoMatchOptions& options) {
+    return with_opencv_errors("automatic matching", [&] { return match(a, b, options); });
 }
 
 }  // namespace tesswave::morph

@@ -15,18 +15,15 @@
 #include "core/io/image_io.h"
 #include "core/io/video_io.h"
 #include "core/math/error.h"
+#include "temp_dir.h"
 
 namespace tesswave {
 namespace {
 
 namespace fs = std::filesystem;
 
-struct TempDir {
-    fs::path path =
-        fs::temp_directory_path() / ("tesswave_frame_source_" + std::to_string(::getpid()));
-    TempDir() { fs::create_directories(path); }
-    ~TempDir() { fs::remove_all(path); }
-    std::string operator/(const std::string& name) const { return (path / name).string(); }
+struct TempDir : testing::TempDir {
+    TempDir() : testing::TempDir("frame_source") {}
 };
 
 // Frame t of a small clip, every sample on the 8-bit grid (q / 255), different in each channel,

@@ -9,6 +9,7 @@
 #include <iterator>
 
 #include "core/math/error.h"
+#include "temp_dir.h"
 #include "test_meshes.h"
 
 namespace tesswave {
@@ -16,11 +17,8 @@ namespace {
 
 namespace fs = std::filesystem;
 
-struct TempDir {
-    fs::path path = fs::temp_directory_path() / ("tesswave_image_io_" + std::to_string(::getpid()));
-    TempDir() { fs::create_directories(path); }
-    ~TempDir() { fs::remove_all(path); }
-    std::string operator/(const std::string& name) const { return (path / name).string(); }
+struct TempDir : testing::TempDir {
+    TempDir() : testing::TempDir("image_io") {}
 };
 
 Image pattern(int w, int h, int channels, SampleFormat format) {

@@ -15,6 +15,7 @@
 
 #include "core/io/image_io.h"
 #include "core/math/error.h"
+#include "temp_dir.h"
 
 namespace tesswave {
 namespace {
@@ -168,14 +169,8 @@ void expect_matches(double ours, const std::string& text, double slack, const st
     EXPECT_NEAR(ours, theirs, print_precision(text) + slack) << what << ": ffmpeg printed " << text;
 }
 
-struct TempDir {
-    fs::path path = fs::temp_directory_path() /
-                    ("tesswave_metrics_test_" + std::to_string(static_cast<long>(getpid())));
-    TempDir() { fs::create_directories(path); }
-    ~TempDir() {
-        std::error_code ignored;
-        fs::remove_all(path, ignored);
-    }
+struct TempDir : testing::TempDir {
+    TempDir() : testing::TempDir("metrics") {}
 };
 
 struct Pair {

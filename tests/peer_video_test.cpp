@@ -11,6 +11,7 @@
 #include "core/io/video_io.h"
 #include "core/math/error.h"
 #include "core/math/metrics.h"
+#include "temp_dir.h"
 
 namespace tesswave {
 namespace {
@@ -74,8 +75,8 @@ double target_bytes(double kbps) { return kbps * 1000 / 8 * kFrames / 25; }
 // What VideoWriter's .y4m (yuv420p) and VideoReader make of the clip: the colour round trip
 // every peer goes through, the ceiling of its quality.
 std::vector<Image> writer_reader_round_trip(int w, int h) {
-    const fs::path path =
-        fs::temp_directory_path() / ("tesswave_peer_video_" + std::to_string(::getpid()) + ".y4m");
+    const testing::TempDir dir("peer_video");
+    const fs::path path = dir.path / "clip.y4m";
     VideoWriter writer(path.string(), w, h, {.codec = VideoCodec::rawvideo});
     for (int t = 0; t < kFrames; ++t) writer.write(test_frame(w, h, t));
     writer.finish();

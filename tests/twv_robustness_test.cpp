@@ -10,6 +10,7 @@
 #include "core/codec/byte_io.h"
 #include "core/math/error.h"
 #include "samples/sample_clip.h"
+#include "temp_dir.h"
 #include "video/dec_video.h"
 #include "video/enc_video.h"
 #include "video/twv_format.h"
@@ -21,7 +22,8 @@ namespace fs = std::filesystem;
 using Bytes = std::vector<uint8_t>;
 
 std::string temp_path(const std::string& name) {
-    return (fs::temp_directory_path() / ("tesswave_twv_test_" + name)).string();
+    static const testing::TempDir dir("twv_test");
+    return dir / name;
 }
 
 Bytes read_bytes(const std::string& path) {

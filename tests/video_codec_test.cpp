@@ -10,6 +10,7 @@
 #include "core/math/error.h"
 #include "core/math/metrics.h"
 #include "samples/sample_clip.h"
+#include "temp_dir.h"
 #include "video/dec_video.h"
 #include "video/enc_video.h"
 
@@ -26,7 +27,8 @@ struct Coded {
 };
 
 std::string temp_path(const std::string& name) {
-    return (fs::temp_directory_path() / ("tesswave_video_test_" + name)).string();
+    static const testing::TempDir dir("video_test");
+    return dir / name;
 }
 
 std::vector<Image> clip(const samples::SampleClipOptions& o) {

@@ -13,18 +13,15 @@
 #include "core/io/image_io.h"
 #include "core/math/error.h"
 #include "core/math/metrics.h"
+#include "temp_dir.h"
 
 namespace tesswave {
 namespace {
 
 namespace fs = std::filesystem;
 
-struct TempDir {
-    fs::path path = fs::temp_directory_path() / ("tesswave_video_io_" + std::to_string(::getpid()));
-    TempDir() { fs::create_directories(path); }
-    ~TempDir() { fs::remove_all(path); }
-    std::string operator/(const std::string& name) const { return (path / name).string(); }
-    bool empty() const { return fs::is_empty(path); }
+struct TempDir : testing::TempDir {
+    TempDir() : testing::TempDir("video_io") {}
 };
 
 // A smooth colour field drifting right by 2 px a frame, different in each channel.

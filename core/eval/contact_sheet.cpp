@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <opencv2/imgproc.hpp>
 
+#include "core/io/opencv_image.h"
 #include "core/math/error.h"
 
 namespace tesswave {
@@ -19,8 +20,10 @@ Image centre_crop(const Image& image, int width, int height) {
     return out;
 }
 
-Image contact_sheet(const std::vector<Image>& tiles, const std::vector<std::string>& captions,
-                    const ContactSheetOptions& options) {
+namespace {
+
+Image draw_contact_sheet(const std::vector<Image>& tiles, const std::vector<std::string>& captions,
+                         const ContactSheetOptions& options) {
     if (tiles.empty()) throw Error("contact sheet: no images");
     if (captions.size() != tiles.size()) throw Error("contact sheet: one caption per image");
     int cell_w = 1, cell_h = 1;
@@ -64,6 +67,14 @@ Image contact_sheet(const std::vector<Image>& tiles, const std::vector<std::stri
         }
     }
     return out;
+}
+
+}  // namespace
+
+Image contact_sheet(const std::vector<Image>& tiles, const std::vector<std::string>& captions,
+                    const ContactSheetOptions& options) {
+    return with_opencv_errors("contact sheet",
+                              [&] { return draw_contact_sheet(tiles, captions, options); });
 }
 
 }  // namespace tesswave

@@ -5,6 +5,7 @@
 #include <opencv2/imgproc.hpp>
 #include <unordered_set>
 
+#include "core/io/opencv_image.h"
 #include "core/math/error.h"
 #include "core/math/strings.h"
 
@@ -48,7 +49,9 @@ Style style_of(int level, int levels, double line_width) {
 
 }  // namespace
 
-Image draw_mesh(const Mesh& mesh, const DrawOptions& options, const Image* background) {
+namespace {
+
+Image draw_mesh_raster(const Mesh& mesh, const DrawOptions& options, const Image* background) {
     const double s = pick_scale(mesh, options);
     const int w = static_cast<int>(std::ceil(mesh.width * s));
     const int h = static_cast<int>(std::ceil(mesh.height * s));
@@ -88,6 +91,13 @@ Image draw_mesh(const Mesh& mesh, const DrawOptions& options, const Image* backg
         }
     }
     return out;
+}
+
+}  // namespace
+
+Image draw_mesh(const Mesh& mesh, const DrawOptions& options, const Image* background) {
+    return with_opencv_errors("mesh drawing",
+                              [&] { return draw_mesh_raster(mesh, options, background); });
 }
 
 std::string draw_mesh_svg(const Mesh& mesh, const DrawOptions& options,

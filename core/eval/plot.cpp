@@ -5,6 +5,7 @@
 #include <limits>
 #include <opencv2/imgproc.hpp>
 
+#include "core/io/opencv_image.h"
 #include "core/math/error.h"
 #include "core/math/strings.h"
 
@@ -332,7 +333,9 @@ std::array<float, 3> plot_series_colour(size_t index) {
             static_cast<float>(c[0] / 255)};
 }
 
-Image draw_line_plot(const std::vector<PlotSeries>& series, const PlotOptions& o) {
+namespace {
+
+Image line_plot(const std::vector<PlotSeries>& series, const PlotOptions& o) {
     if (o.width < 160 || o.height < 160 || o.width > 8192 || o.height > 8192) {
         throw Error(str("plot: size ", o.width, "x", o.height, " is outside 160..8192"));
     }
@@ -378,6 +381,12 @@ Image draw_line_plot(const std::vector<PlotSeries>& series, const PlotOptions& o
     }
     if (!series.empty()) draw_legend(m, series, box, st);
     return to_image(m);
+}
+
+}  // namespace
+
+Image draw_line_plot(const std::vector<PlotSeries>& series, const PlotOptions& o) {
+    return with_opencv_errors("plot", [&] { return line_plot(series, o); });
 }
 
 }  // namespace tesswave
