@@ -20,8 +20,16 @@ void check_output(const std::string& path, bool overwrite, const std::vector<std
     namespace fs = std::filesystem;
     std::error_code ec;
     for (const auto& in : inputs) {
-        if (!in.empty() && fs::exists(in, ec) && fs::equivalent(in, path, ec)) {
-            throw Error(path + ": output would overwrite an input");
+        if (in.empty() || !fs::exists(in, ec)) continue;
+        if (fs::equivalent(in, path, ec)) throw Error(path + ": output would overwrite an input");
+        // A folder output (PNG frames) replaces the whole folder: no input may live inside it.
+        if (fs::is_directory(path, ec)) {
+            const fs::path folder = fs::canonical(path, ec), file = fs::canonical(in, ec);
+            const auto [end, _] =
+                std::mismatch(folder.begin(), folder.end(), file.begin(), file.end());
+            if (!folder.empty() && end == folder.end()) {
+                throw Error(path + ": output folder holds the input " + in);
+            }
         }
     }
     if (fs::exists(path, ec) && !overwrite) {

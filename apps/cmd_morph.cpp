@@ -17,6 +17,7 @@
 #include "core/math/sampling.h"
 #include "core/math/strings.h"
 #include "core/math/voronoi.h"
+#include "frame_sink.h"
 #include "morph/auto_match.h"
 #include "morph/morph.h"
 #include "morph/pair.h"
@@ -34,21 +35,14 @@ struct MorphArgs {
     double fps = 25, at = -1, density = 2.0;
 };
 
-enum class OutputKind { video, gif, folder, still };
-
-OutputKind output_kind(const MorphArgs& a) {
+// --at writes one image; otherwise the frames go to a FrameSink.
+void check_morph_output(const MorphArgs& a) {
+    if (a.at < 0) return FrameSink::check_path(a.output);
     const std::string ext = fs::path(a.output).extension().string();
-    if (a.at >= 0) {
-        if (ext != ".png" && ext != ".tif" && ext != ".tiff" && ext != ".jpg" && ext != ".exr") {
-            throw Error(str(a.output, ": --at writes one image (.png, .tif, .jpg, .exr)"));
-        }
-        return OutputKind::still;
+    if (ext != ".png" && ext != ".tif" && ext != ".tiff" && ext != ".jpg" && ext != ".exr") {
+        throw CLI::ValidationError(
+            "--at", str(a.output, ": --at writes one image (.png, .tif, .jpg, .exr)"));
     }
-    if (ext == ".mp4" || ext == ".mkv" || ext == ".mov") return OutputKind::video;
-    if (ext == ".gif") return OutputKind::gif;
-    if (ext.empty()) return OutputKind::folder;
-    throw Error(
-        str(a.output, ": write .mp4, .mkv, .gif, a folder of PNG frames, or --at with an image"));
 }
 
 morph::Correspondences correspondences(const MorphArgs& a, const Image& ia, const Image& ib,
@@ -125,13 +119,9 @@ morph::Schedule schedule(const MorphArgs& a, int levels) {
 
 void run_morph(const MorphArgs& a) {
     const auto start = std::chrono::steady_clock::now();
-    const OutputKind kind = output_kind(a);
-    if (a.frames < 1 && kind != OutputKind::still) throw Error("--frames must be at least 1");
-    if (kind == OutputKind::folder) {
-        check_folder(a.output, a.overwrite);
-    } else {
-        check_output(a.output, a.overwrite, {a.a, a.b});
-    }
+    check_morph_output(a);
+    if (a.frames < 1 && a.at < 0) throw CLI::ValidationError("--frames", "must be at least 1");
+    check_output(a.output, a.overwrite, {a.a, a.b});
     const Image ia = read_image(a.a), ib = read_image(a.b);
     nlohmann::json report = {{"a", a.a}, {"b", a.b}, {"output", a.output}};
     ProgressBar bar;
@@ -157,30 +147,16 @@ void run_morph(const MorphArgs& a) {
     report["levels"] = morph.levels();
     report["samples"] = morph.samples();
     const morph::FrameOptions fo{.preview = a.preview};
-    if (kind == OutputKind::still) {
+    if (a.at >= 0) {
         write_image(morph.frame(a.at, fo), a.output);
     } else {
-        std::vector<Image> gif;
-        std::unique_ptr<VideoWriter> video;
-        if (kind == OutputKind::video) {
-            video = std::make_unique<VideoWriter>(a.output, morph.width(), morph.height(),
-                                                  VideoWriterOptions{.fps = a.fps});
-        }
-        if (kind == OutputKind::folder) prepare_folder(a.output, a.overwrite);
+        FrameSink sink(a.output, morph.width(), morph.height(), a.fps);
         for (int k = 0; k < a.frames; ++k) {
             bar.update(0.3 + 0.7 * k / a.frames, "frames");
             const double t = a.frames == 1 ? 0.0 : static_cast<double>(k) / (a.frames - 1);
-            Image f = morph.frame(t, fo);
-            if (video) video->write(f);
-            if (kind == OutputKind::gif) gif.push_back(std::move(f));
-            if (kind == OutputKind::folder) {
-                char name[32];
-                std::snprintf(name, sizeof name, "frame_%04d.png", k);
-                write_image(f, (fs::path(a.output) / name).string());
-            }
+            sink.write(morph.frame(t, fo));
         }
-        if (video) video->finish();
-        if (kind == OutputKind::gif) write_gif(gif, a.output, a.fps);
+        sink.finish();
         report["frames"] = a.frames;
     }
     bar.update(1.0, "done");

@@ -200,6 +200,7 @@ std::pair<int64_t, int64_t> parse_range(const std::string& text) {
 }
 
 void run_decode(const DecodeArgs& a) {
+    FrameSink::check_path(a.output);
     check_output(a.output, a.overwrite, {a.input});
     const auto [first, last] = parse_range(a.frames);
     const auto start = std::chrono::steady_clock::now();

@@ -2,6 +2,7 @@
 
 #include <unistd.h>
 
+#include <CLI/CLI.hpp>
 #include <filesystem>
 
 #include "core/io/image_io.h"
@@ -19,14 +20,29 @@ std::string extension(const std::string& path) {
     return e;
 }
 
-}  // namespace
-
-bool FrameSink::is_video_path(const std::string& path) {
+bool is_video_path(const std::string& path) {
     const std::string e = extension(path);
     return e == ".mp4" || e == ".mov" || e == ".mkv" || e == ".y4m";
 }
 
-FrameSink::FrameSink(const std::string& path, int width, int height, double fps) : path_(path) {
+}  // namespace
+
+bool FrameSink::is_folder_path(const std::string& path) {
+    return path.ends_with('/') || extension(path).empty();
+}
+
+void FrameSink::check_path(const std::string& path, const std::string& option) {
+    if (is_video_path(path) || extension(path) == ".gif" || is_folder_path(path)) return;
+    throw CLI::ValidationError(option,
+                               str(path,
+                                   ": frames go to .mp4, .mov, .mkv, .y4m, .gif or a folder "
+                                   "(a path without an extension)"));
+}
+
+FrameSink::FrameSink(const std::string& path, int width, int height, double fps)
+    : path_(path), fps_(fps) {
+    check_path(path);
+    if (extension(path) == ".gif") return;
     if (is_video_path(path)) {
         const std::string e = extension(path);
         const VideoCodec codec = e == ".mkv"   ? VideoCodec::ffv1
@@ -56,6 +72,8 @@ FrameSink::~FrameSink() {
 void FrameSink::write(const Image& frame) {
     if (video_) {
         video_->write(frame);
+    } else if (folder_.empty()) {
+        gif_.push_back(frame);
     } else {
         char name[32];
         std::snprintf(name, sizeof name, "frame_%05lld.png", static_cast<long long>(frames_));
@@ -67,6 +85,9 @@ void FrameSink::write(const Image& frame) {
 void FrameSink::finish() {
     if (video_) {
         video_->finish();
+    } else if (folder_.empty()) {
+        if (frames_ == 0) throw Error(str(path_, ": no frames to write"));
+        write_gif(gif_, path_, fps_);
     } else {
         if (frames_ == 0) throw Error(str(path_, ": no frames to write"));
         std::error_code ec;

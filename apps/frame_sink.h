@@ -1,11 +1,13 @@
-// Where decoded frames go: a video file through libav (.mp4/.mov H.264, .mkv FFV1, .y4m) or a
-// folder of numbered PNG frames (any other path). Nothing appears at the path until finish():
-// video files are written under a temporary name, PNG frames into a temporary folder renamed
-// into place.
+// Where the frames of `decode` and `morph` go: a video file through libav (.mp4/.mov H.264, .mkv
+// lossless FFV1, .y4m), an animated GIF (.gif, palette per clip), or a folder of numbered PNG
+// frames (a path without an extension, or ending in /). Any other extension is refused before
+// any work (check_path). Nothing appears at the path until finish(): files are written under a
+// temporary name, PNG frames into a temporary folder renamed into place.
 #pragma once
 
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "core/io/video_io.h"
 #include "core/math/image.h"
@@ -19,11 +21,16 @@ class FrameSink {
     void write(const Image& frame);
     void finish();
     int64_t frames() const { return frames_; }
-    static bool is_video_path(const std::string& path);
+    // Throws CLI::ValidationError (exit 2) naming `option` for a path no sink writes.
+    static void check_path(const std::string& path, const std::string& option = "--output");
+    // True for a folder of PNG frames.
+    static bool is_folder_path(const std::string& path);
 
   private:
     std::string path_, folder_;
+    double fps_ = 25;
     std::unique_ptr<VideoWriter> video_;
+    std::vector<Image> gif_;  // a GIF's palette comes from all its frames
     int64_t frames_ = 0;
     bool finished_ = false;
 };
