@@ -11,8 +11,10 @@
 #include "core/io/image_io.h"
 #include "core/io/mesh_io.h"
 #include "core/math/error.h"
+#include "core/math/grid_mesh.h"
 #include "core/math/strings.h"
 #include "core/math/validate.h"
+#include "core/math/voronoi.h"
 
 namespace tesswave::cli {
 
@@ -68,13 +70,27 @@ void prepare_folder(const std::string& dir, bool overwrite) {
     if (ec) throw Error(str(dir, ": cannot create folder (", ec.message(), ")"));
 }
 
-ProgressBar::ProgressBar() : enabled_(::isatty(2) != 0) {}
+Verbosity& verbosity() {
+    static Verbosity level = Verbosity::normal;
+    return level;
+}
+
+void warn(const std::string& line) {
+    if (verbosity() != Verbosity::quiet) std::fprintf(stderr, "%s\n", line.c_str());
+}
+
+ProgressBar::ProgressBar() : enabled_(verbosity() == Verbosity::normal && ::isatty(2) != 0) {}
 
 ProgressBar::~ProgressBar() {
     if (enabled_ && last_ >= 0) std::fprintf(stderr, "\r%70s\r", "");
 }
 
 void ProgressBar::update(double fraction, const char* stage) {
+    if (verbosity() == Verbosity::verbose && stage_ != stage) {
+        stage_ = stage;
+        std::fprintf(stderr, "[%8.2f s] %3.0f%% %s\n", seconds_since(start_),
+                     std::clamp(fraction, 0.0, 1.0) * 100, stage);
+    }
     if (!enabled_) return;
     const int percent = static_cast<int>(std::lround(std::clamp(fraction, 0.0, 1.0) * 100));
     if (percent == last_) return;
@@ -96,8 +112,8 @@ std::pair<double, double> parse_pair(const std::string& text, const std::string&
     std::string rest;
     if (!(in >> a >> b) || (in >> rest) || !std::isfinite(a) || !std::isfinite(b) || a <= 0 ||
         b <= 0) {
-        throw Error(
-            str(option, ": expected ", form, " with two positive numbers, got \"", text, "\""));
+        throw CLI::ValidationError(
+            option, str("expected ", form, " with two positive numbers, got \"", text, "\""));
     }
     return {a, b};
 }
@@ -106,14 +122,15 @@ std::pair<double, double> parse_pair(const std::string& text, const std::string&
 
 std::pair<double, double> parse_size(const std::string& text, const std::string& option) {
     auto [w, h] = parse_pair(text, option, "WxH");
-    if (w > 1e7 || h > 1e7) throw Error(str(option, ": ", text, " is larger than 1e7"));
+    if (w > 1e7 || h > 1e7) throw CLI::ValidationError(option, str(text, " is larger than 1e7"));
     return {w, h};
 }
 
 std::pair<int, int> parse_cells(const std::string& text, const std::string& option) {
     auto [c, r] = parse_pair(text, option, "CxR");
     if (c != std::floor(c) || r != std::floor(r) || c > 1e5 || r > 1e5) {
-        throw Error(str(option, ": expected whole numbers CxR up to 100000, got \"", text, "\""));
+        throw CLI::ValidationError(
+            option, str("expected whole numbers CxR up to 100000, got \"", text, "\""));
     }
     return {static_cast<int>(c), static_cast<int>(r)};
 }
@@ -137,6 +154,49 @@ Mesh read_mesh_for(const std::string& mesh_path, const std::string& image_path, 
     }
     require_valid(mesh, mesh_path);
     return mesh;
+}
+
+bool is_mesh_generator(const std::string& spec) {
+    const std::string kind = spec.substr(0, spec.find(':'));
+    return kind == "grid" || kind == "voronoi";
+}
+
+Mesh generated_mesh(const std::string& spec, double width, double height) {
+    const size_t colon = spec.find(':');
+    const std::string kind = spec.substr(0, colon);
+    const std::string count = colon == std::string::npos ? "" : spec.substr(colon + 1);
+    if (kind == "grid") {
+        auto [c, r] = count.empty()
+                          ? std::pair{std::max(1, static_cast<int>(std::lround(width / 24))),
+                                      std::max(1, static_cast<int>(std::lround(height / 24)))}
+                          : parse_cells(count, "--mesh grid");
+        return grid_mesh(width, height, c, r);
+    }
+    if (kind == "voronoi") {
+        int sites = std::max(4, static_cast<int>(width * height / 576));
+        if (!count.empty()) {
+            size_t used = 0;
+            long long n = 0;
+            try {
+                n = std::stoll(count, &used);
+            } catch (const std::exception&) {
+                used = 0;
+            }
+            if (used != count.size() || n < 1 || n > 1'000'000) {
+                throw CLI::ValidationError(
+                    "--mesh", str("voronoi:N needs N from 1 to 1000000, got \"", count, "\""));
+            }
+            sites = static_cast<int>(n);
+        }
+        return voronoi_mesh(width, height, {.sites = sites, .seed = 1, .lloyd_iterations = 2});
+    }
+    throw CLI::ValidationError("--mesh", str("'", spec, "' is not grid[:CxR] or voronoi[:N]"));
+}
+
+Mesh mesh_for(const std::string& spec, const std::string& image_path, const Image& image,
+              bool fit) {
+    if (is_mesh_generator(spec)) return generated_mesh(spec, image.width, image.height);
+    return read_mesh_for(spec, image_path, image, fit);
 }
 
 const char* transform_name(TwiTransform t) {

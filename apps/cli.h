@@ -31,7 +31,15 @@ inline double seconds_since(std::chrono::steady_clock::time_point t) {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
 }
 
-// A one-line progress bar on stderr, drawn only when stderr is a terminal.
+// -q: errors only (and --json output); -v: every stage on a line of its own, with its time.
+enum class Verbosity { quiet, normal, verbose };
+Verbosity& verbosity();
+
+// A note or warning on stderr, one line ("warning: ..."), unless -q.
+void warn(const std::string& line);
+
+// A one-line progress bar on stderr, drawn only when stderr is a terminal; with -v, a line per
+// stage instead (terminal or not); nothing with -q.
 class ProgressBar {
   public:
     ProgressBar();
@@ -41,12 +49,14 @@ class ProgressBar {
   private:
     bool enabled_;
     int last_ = -1;
+    std::string stage_;
+    std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();
 };
 
 // A check for options that must be a positive (finite) number: "must be <what>, not '<text>'".
 CLI::Validator positive(const std::string& what);
 
-// "WxH" or "W x H" into two positive numbers; throws Error naming the option.
+// "WxH" or "W x H" into two positive numbers; throws CLI::ValidationError naming the option.
 std::pair<double, double> parse_size(const std::string& text, const std::string& option);
 std::pair<int, int> parse_cells(const std::string& text, const std::string& option);
 
@@ -55,14 +65,24 @@ std::pair<int, int> parse_cells(const std::string& text, const std::string& opti
 Mesh read_mesh_for(const std::string& mesh_path, const std::string& image_path, const Image& image,
                    bool fit);
 
+// --mesh has one meaning in every subcommand, the tessellation: a mesh file (.json) or a
+// generator, "grid[:CxR]" (a regular grid) or "voronoi[:N]" (Voronoi cells of N sites, seed 1,
+// two Lloyd steps); without the count, cells of about 24 pixels.
+bool is_mesh_generator(const std::string& spec);
+Mesh generated_mesh(const std::string& spec, double width, double height);
+// The mesh a --mesh SPEC gives for an image (`fit`: scale a file's domain to the image).
+Mesh mesh_for(const std::string& spec, const std::string& image_path, const Image& image, bool fit);
+
+// --density has one range everywhere: samples per pixel in [0.01, 16].
+inline CLI::Range density_range() { return CLI::Range(0.01, 16.0); }
+
 // The analyze job, shared by `tesswave analyze` and the demo.
 struct AnalyzeRequest {
-    std::string image, mesh, grid, output;
-    int voronoi = 0;
+    std::string image, mesh, output;  // mesh: a --mesh spec (empty: the paper's T0)
     bool fit_mesh = false;
-    int levels = 0;        // 0: from density
-    double density = 3.5;  // samples per pixel, the paper's figure
-    std::string keep = "10,1,0.1";
+    int levels = 0;                           // 0: from density
+    double density = 3.5;                     // samples per pixel, the paper's figure
+    std::vector<double> keep = {10, 1, 0.1};  // percentages of the detail coefficients
     std::string select = "paper";
     bool overwrite = false;
     std::string mesh_description;

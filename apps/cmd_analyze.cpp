@@ -25,24 +25,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-std::vector<double> parse_keep(const std::string& text) {
-    std::vector<double> out;
-    std::stringstream in(text);
-    std::string item;
-    while (std::getline(in, item, ',')) {
-        try {
-            size_t used = 0;
-            const double v = std::stod(item, &used);
-            if (used != item.size() || !(v > 0 && v <= 100)) throw std::invalid_argument(item);
-            out.push_back(v);
-        } catch (const std::exception&) {
-            throw Error(str("--keep: \"", item, "\" is not a percentage in (0, 100]"));
-        }
-    }
-    if (out.empty()) throw Error("--keep: give at least one percentage, e.g. 10,1,0.1");
-    return out;
-}
-
 std::string keep_name(double k) {
     std::ostringstream s;
     s.precision(3);
@@ -88,15 +70,8 @@ Mesh analysis_mesh(const AnalyzeRequest& request, const Image& image, std::strin
     const double W = image.width, H = image.height;
     Mesh mesh;
     if (!request.mesh.empty()) {
-        mesh = read_mesh_for(request.mesh, request.image, image, request.fit_mesh);
+        mesh = mesh_for(request.mesh, request.image, image, request.fit_mesh);
         description = request.mesh;
-    } else if (request.voronoi > 0) {
-        mesh = voronoi_mesh(W, H, {.sites = request.voronoi, .seed = 1, .lloyd_iterations = 2});
-        description = str("voronoi ", request.voronoi);
-    } else if (!request.grid.empty()) {
-        auto [c, r] = parse_cells(request.grid, "--grid");
-        mesh = grid_mesh(W, H, c, r);
-        description = "grid " + request.grid;
     } else {
         mesh = samples::paper_t0(W, H);
         description = "paper T0 (20 vertices, 14 faces)";
@@ -112,7 +87,7 @@ AnalysisResult run_analyze(const AnalyzeRequest& request) {
     AnalyzeRequest req = request;
     const Mesh mesh = analysis_mesh(request, image, req.mesh_description);
     AnalysisOptions options;
-    options.keep = parse_keep(request.keep);
+    options.keep = request.keep;
     options.picture_rule = request.select == "l2" ? SelectionRule::l2 : SelectionRule::paper;
     options.levels = request.levels > 0
                          ? request.levels
@@ -152,22 +127,22 @@ void add_analyze_command(CLI::App& app) {
         "Put an image on a tessellation, transform it, and reconstruct it from k % of its "
         "wavelet coefficients, beside fixed-grid 5/3 and 9/7 (the paper's Figure 7)");
     cmd->add_option("image", q.image, "Image file (PNG, JPEG, TIFF, EXR, PNM, ...)")->required();
-    auto* mesh = cmd->add_option("--mesh", q.mesh, "Tessellation file (.json)");
-    auto* vor = cmd->add_option("--voronoi", q.voronoi, "Use Voronoi cells of N sites")
-                    ->check(CLI::Range(1, 1'000'000));
-    auto* grid = cmd->add_option("--grid", q.grid, "Use a regular grid of CxR cells");
-    mesh->excludes(vor)->excludes(grid);
-    vor->excludes(grid);
+    cmd->add_option("--mesh", q.mesh,
+                    "Tessellation: a .json file, grid[:CxR] or voronoi[:N] (default: the paper's "
+                    "20-vertex T0)");
     cmd->add_flag("--fit-mesh", q.fit_mesh, "Scale a --mesh whose domain differs from the image");
     auto* levels =
         cmd->add_option("-J,--levels", q.levels, "Finest level J")->check(CLI::Range(1, 12));
     auto* density =
         cmd->add_option("--density", q.density, "Choose J for about this many samples per pixel")
             ->capture_default_str()
-            ->check(CLI::Range(0.01, 100.0));
+            ->check(density_range());
     levels->excludes(density);
-    cmd->add_option("--keep", q.keep, "Percentages of detail coefficients to keep")
-        ->capture_default_str();
+    cmd->add_option("--keep", q.keep,
+                    "Percentages of detail coefficients to keep (comma-separated)")
+        ->delimiter(',')
+        ->capture_default_str()
+        ->check(CLI::Range(1e-9, 100.0));
     cmd->add_option("--select", q.select, "Rule of the reconstructions written: paper or l2")
         ->capture_default_str()
         ->check(CLI::IsMember({"paper", "l2"}));

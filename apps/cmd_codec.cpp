@@ -48,9 +48,9 @@ void choose_lossless_mesh(CompressArgs& a) {
                 "so the image cannot come back exactly (use --aligned or --grid 53)"));
     }
     a.aligned = true;
-    std::fprintf(stderr,
-                 "note: --lossless uses the aligned mesh (its finest vertices are the pixel "
-                 "centres), the only mesh that gives the image back exactly\n");
+    warn(
+        "note: --lossless uses the aligned mesh (its finest vertices are the pixel centres), the "
+        "only mesh that gives the image back exactly");
 }
 
 void run_compress(CompressArgs a) {
@@ -63,7 +63,7 @@ void run_compress(CompressArgs a) {
     if (a.bpp > 0) o.max_bytes = static_cast<int64_t>(std::floor(a.bpp * pixels / 8));
     if (a.psnr > 0) o.target_psnr = a.psnr;
     if (a.bpp <= 0 && a.psnr <= 0 && !a.lossless) o.base_step = step_for_psnr(kDefaultQualityDb);
-    if (!a.mesh.empty()) o.mesh = read_mesh_for(a.mesh, a.input, image, a.fit_mesh);
+    if (!a.mesh.empty()) o.mesh = mesh_for(a.mesh, a.input, image, a.fit_mesh);
     o.aligned = a.aligned;
     o.levels = a.levels;
     o.density = a.density;
@@ -76,13 +76,14 @@ void run_compress(CompressArgs a) {
         throw Error(str(a.input, ": ", e.what()));
     }
     if (!r.target_reached) {
-        std::fprintf(stderr,
-                     "warning: %s: %.2f dB is out of reach; writing the whole stream, %.2f dB%s\n",
-                     a.input.c_str(), a.psnr, r.psnr,
-                     r.header.transform == TwiTransform::mesh
-                         ? " (the mesh's resampling caps it: a denser mesh, --density or --grid "
-                           "goes higher)"
-                         : "");
+        char line[160];
+        std::snprintf(line, sizeof line,
+                      "%.2f dB is out of reach; writing the whole stream, %.2f dB", a.psnr, r.psnr);
+        warn(str("warning: ", a.input, ": ", line,
+                 r.header.transform == TwiTransform::mesh
+                     ? " (the mesh's resampling caps it: a denser mesh, --density or --grid goes "
+                       "higher)"
+                     : ""));
     }
     write_file_atomic(
         a.output, std::string_view(reinterpret_cast<const char*>(r.file.data()), r.file.size()));
@@ -168,7 +169,9 @@ void add_codec_commands(CLI::App& app) {
     psnr->excludes(lossless);
     auto* grid = cmd->add_option("--grid", c->grid, "Fixed-grid wavelet on the pixels: 53 or 97")
                      ->check(CLI::IsMember({"53", "97"}));
-    auto* mesh = cmd->add_option("--mesh", c->mesh, "Tessellation file (.json; default a grid)");
+    auto* mesh = cmd->add_option("--mesh", c->mesh,
+                                 "Tessellation: a .json file, grid[:CxR] or voronoi[:N] (default: "
+                                 "a grid at --density)");
     cmd->add_flag("--fit-mesh", c->fit_mesh, "Scale a --mesh whose domain differs from the image");
     auto* aligned = cmd->add_flag("--aligned", c->aligned,
                                   "Grid mesh with its finest vertices on the pixel centres "
@@ -179,7 +182,7 @@ void add_codec_commands(CLI::App& app) {
         ->check(CLI::Range(1, 12));
     cmd->add_option("--density", c->density, "Mesh samples per pixel when J is chosen")
         ->capture_default_str()
-        ->check(CLI::Range(0.01, 16.0));
+        ->check(density_range());
     cmd->add_flag("-y,--overwrite", c->overwrite, "Overwrite the output");
     cmd->add_flag("--json", c->json, "Print the result as JSON");
     cmd->callback([c] { run_compress(*c); });

@@ -27,7 +27,8 @@ namespace {
 
 struct CompareArgs {
     std::vector<std::string> images;
-    std::string bpp = "0.25,0.5,1,2", output;
+    std::vector<double> bpp = {0.25, 0.5, 1, 2};
+    std::string output;
     double density = 1.0;
     bool overwrite = false, json = false;
 };
@@ -41,22 +42,6 @@ struct Row {
 };
 
 const char* const kMethods[] = {"mesh", "mesh aligned", "grid 5/3", "grid 9/7", "JPEG 2000"};
-
-std::vector<double> parse_rates(const std::string& text) {
-    std::vector<double> rates;
-    std::stringstream in(text);
-    std::string item;
-    while (std::getline(in, item, ',')) {
-        char* end = nullptr;
-        const double v = std::strtod(item.c_str(), &end);
-        if (item.empty() || *end != '\0' || !(v > 0) || v > 64) {
-            throw Error(str("--bpp: '", item, "' is not a rate in (0, 64] bits per pixel"));
-        }
-        rates.push_back(v);
-    }
-    if (rates.empty()) throw Error("--bpp: no rates given");
-    return rates;
-}
 
 StillOptions method_options(int method, double density) {
     StillOptions o;
@@ -197,7 +182,7 @@ std::string summary(const std::vector<Row>& avg, const std::vector<Row>& lossles
 }
 
 void run_compare(const CompareArgs& a) {
-    const std::vector<double> rates = parse_rates(a.bpp);
+    const std::vector<double>& rates = a.bpp;
     check_folder(a.output, a.overwrite);
     std::vector<Image> images;
     for (const std::string& path : a.images) {
@@ -310,10 +295,12 @@ void add_compare_command(CLI::App& app) {
         "compare", "Mesh wavelets vs fixed-grid 5/3 and 9/7 vs JPEG 2000 at equal file sizes");
     cmd->add_option("images", a->images, "Input images (8-bit)")->required();
     cmd->add_option("--bpp", a->bpp, "Rates in bits per pixel, comma-separated")
+        ->delimiter(',')
+        ->check(CLI::Range(1e-6, 64.0))
         ->capture_default_str();
     cmd->add_option("--density", a->density, "Samples per pixel of the mesh path's grid mesh")
         ->capture_default_str()
-        ->check(CLI::Range(0.01, 100.0));
+        ->check(density_range());
     cmd->add_option("-o,--output", a->output, "Output folder")->required();
     cmd->add_flag("-y,--overwrite", a->overwrite, "Overwrite files in a non-empty folder");
     cmd->add_flag("--json", a->json, "Print the results as JSON");

@@ -29,8 +29,9 @@ using namespace eval;  // the compare-video harness
 
 struct CompareVideoArgs {
     std::vector<std::string> clips;
-    std::string rates = "0.05,0.1,0.2,0.4,0.8,1.6";
-    std::string methods = "moving,static,grid53,grid97,snow,vc2,x264";
+    std::vector<std::string> rates = {"0.05", "0.1", "0.2", "0.4", "0.8", "1.6"};
+    std::vector<std::string> methods = {"moving", "static", "grid53", "grid97",
+                                        "snow",   "vc2",    "x264"};
     std::string output, size, pixel_format = "yuv420p";
     int64_t frames = 0, shown_frame = -1;
     int group = 32;
@@ -48,32 +49,29 @@ struct Rate {
     }
 };
 
-std::vector<Rate> parse_rates(const std::string& text) {
+std::vector<Rate> parse_rates(const std::vector<std::string>& items) {
     std::vector<Rate> rates;
-    std::stringstream in(text);
-    std::string item;
-    while (std::getline(in, item, ',')) {
+    for (const std::string& item : items) {
         Rate r{item};
         r.kbps = !item.empty() && (item.back() == 'k' || item.back() == 'K');
         const std::string number = r.kbps ? item.substr(0, item.size() - 1) : item;
         char* end = nullptr;
         r.value = std::strtod(number.c_str(), &end);
         if (number.empty() || *end != '\0' || !(r.value > 0) || r.value > (r.kbps ? 1e7 : 64)) {
-            throw Error(str("--rates: '", item,
-                            "' is neither bits per pixel in (0, 64] nor kbit/s like 300k"));
+            throw CLI::ValidationError(
+                "--rates",
+                str("'", item, "' is neither bits per pixel in (0, 64] nor kbit/s like 300k"));
         }
         rates.push_back(r);
     }
-    if (rates.empty()) throw Error("--rates: no rates given");
+    if (rates.empty()) throw CLI::ValidationError("--rates", "no rates given");
     return rates;
 }
 
-std::vector<VideoMethod> parse_methods(const std::string& text) {
+std::vector<VideoMethod> parse_methods(const std::vector<std::string>& ids) {
     std::set<VideoMethod> chosen;
-    std::stringstream in(text);
-    std::string id;
-    while (std::getline(in, id, ',')) chosen.insert(method_from_id(id));
-    if (chosen.empty()) throw Error("--methods: no methods given");
+    for (const std::string& id : ids) chosen.insert(method_from_id(id));
+    if (chosen.empty()) throw CLI::ValidationError("--methods", "no methods given");
     std::vector<VideoMethod> methods;
     for (VideoMethod m : kVideoMethods) {
         if (chosen.count(m)) methods.push_back(m);
@@ -314,10 +312,13 @@ void add_compare_video_command(CLI::App& app) {
         ->required();
     cmd->add_option("--rates", a->rates,
                     "Rates, comma-separated: bits per pixel (0.1) or kbit/s with a k suffix (300k)")
+        ->delimiter(',')
         ->capture_default_str();
     cmd->add_option("--methods", a->methods,
                     "Methods, comma-separated: moving, static, grid53, grid97, snow, vc2, x264")
-        ->capture_default_str();
+        ->delimiter(',')
+        ->capture_default_str()
+        ->check(CLI::IsMember({"moving", "static", "grid53", "grid97", "snow", "vc2", "x264"}));
     cmd->add_option("--frames", a->frames, "Use the first N frames of each clip (default: all)")
         ->check(CLI::Range(int64_t{1}, int64_t{100'000'000}));
     cmd->add_option("--frame", a->shown_frame,

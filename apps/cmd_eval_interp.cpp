@@ -101,7 +101,7 @@ struct EvalArgs {
     std::vector<std::string> dirs;
     std::string output;
     bool overwrite = false, json = false;
-    double density = 3.5, cell = 10;
+    double density = morph::InbetweenOptions{}.morph.density, cell = morph::InbetweenOptions{}.cell;
 };
 
 void run_eval(const EvalArgs& a) {
@@ -184,7 +184,7 @@ void add_eval_interp_command(CLI::App& app) {
     cmd->add_flag("--json", a->json, "Also print the report as JSON");
     cmd->add_option("--density", a->density, "Mesh samples per pixel")
         ->capture_default_str()
-        ->check(CLI::Range(0.1, 16.0));
+        ->check(density_range());
     cmd->add_option("--cell", a->cell, "Grid cell size of the fitted mesh, pixels")
         ->capture_default_str()
         ->check(CLI::Range(4.0, 1024.0));

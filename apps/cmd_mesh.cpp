@@ -231,7 +231,7 @@ void add_draw(CLI::App& mesh_cmd) {
     auto* cmd = mesh_cmd.add_subcommand(
         "draw", "Picture of T0 (bold) and its refinement levels (thin), PNG or SVG");
     cmd->add_option("mesh", args->path, "Mesh file (.json)")->required();
-    cmd->add_option("-K,--levels", args->draw.levels, "Refinement levels to draw")
+    cmd->add_option("-J,--levels", args->draw.levels, "Refinement levels to draw")
         ->capture_default_str()
         ->check(CLI::Range(0, 8));
     cmd->add_option("--image", args->image, "Draw over this image");

@@ -19,6 +19,7 @@
 #include "core/math/voronoi.h"
 #include "frame_sink.h"
 #include "morph/auto_match.h"
+#include "morph/inbetween.h"
 #include "morph/morph.h"
 #include "morph/pair.h"
 
@@ -37,6 +38,12 @@ struct MorphArgs {
 
 // --at writes one image; otherwise the frames go to a FrameSink.
 void check_morph_output(const MorphArgs& a) {
+    if (!a.mesh.empty() && a.mesh != "triangulation" && !is_mesh_generator(a.mesh)) {
+        throw CLI::ValidationError(
+            "--mesh",
+            str("'", a.mesh,
+                "': a morph fits its meshes, give triangulation, grid[:CxR] or voronoi[:N]"));
+    }
     if (a.at < 0) return FrameSink::check_path(a.output);
     const std::string ext = fs::path(a.output).extension().string();
     if (ext != ".png" && ext != ".tif" && ext != ".tiff" && ext != ".jpg" && ext != ".exr") {
@@ -65,25 +72,6 @@ morph::Correspondences correspondences(const MorphArgs& a, const Image& ia, cons
     return c;
 }
 
-// The mesh on A for fitting: "grid[:CxR]" or "voronoi[:N]"; cells about 24 px by default.
-Mesh fitting_mesh(const std::string& spec, const Image& image) {
-    const std::string kind = spec.substr(0, spec.find(':'));
-    const std::string count =
-        spec.find(':') == std::string::npos ? "" : spec.substr(spec.find(':') + 1);
-    const double W = image.width, H = image.height;
-    if (kind == "grid") {
-        auto [c, r] = count.empty() ? std::pair{std::max(1, static_cast<int>(std::lround(W / 24))),
-                                                std::max(1, static_cast<int>(std::lround(H / 24)))}
-                                    : parse_cells(count, "--mesh grid");
-        return grid_mesh(W, H, c, r);
-    }
-    if (kind == "voronoi") {
-        const int n = count.empty() ? std::max(4, static_cast<int>(W * H / 576)) : std::stoi(count);
-        return voronoi_mesh(W, H, {.sites = n, .seed = 1, .lloyd_iterations = 2});
-    }
-    throw Error(str("--mesh: '", spec, "' is not triangulation, grid[:CxR] or voronoi[:N]"));
-}
-
 morph::PairMeshes pair_meshes(const MorphArgs& a, const morph::Correspondences& c, const Image& ia,
                               const Image& ib) {
     if (!a.triangles.empty()) {
@@ -99,7 +87,7 @@ morph::PairMeshes pair_meshes(const MorphArgs& a, const morph::Correspondences& 
     if (spec == "triangulation") {
         return morph::triangulated_pair(c, ia.width, ia.height, ib.width, ib.height);
     }
-    return morph::fitted_pair(fitting_mesh(spec, ia), c, ib.width, ib.height);
+    return morph::fitted_pair(generated_mesh(spec, ia.width, ia.height), c, ib.width, ib.height);
 }
 
 morph::Schedule schedule(const MorphArgs& a, int levels) {
@@ -179,7 +167,7 @@ void add_schedule_options(CLI::App* cmd, MorphArgs& a) {
     cmd->add_option("--shape", a.shape, "Geometry timing window START-END (default 0-1)");
     cmd->add_option("--density", a.density, "Mesh samples per output pixel")
         ->capture_default_str()
-        ->check(CLI::Range(0.1, 16.0));
+        ->check(density_range());
     cmd->add_option("-J,--levels", a.levels, "Mesh level J (default from --density)")
         ->check(CLI::Range(1, 10));
     cmd->add_flag("-y,--overwrite", a.overwrite, "Overwrite outputs");
@@ -211,7 +199,9 @@ void add_morph_commands(CLI::App& app) {
     cmd->add_option("--mesh", a->mesh,
                     "triangulation (default with points), grid[:CxR] or voronoi[:N] fitted with "
                     "Ceres (default grid with --auto)");
-    cmd->add_option("--frames", a->frames, "Frames from A to B")->capture_default_str();
+    cmd->add_option("--frames", a->frames, "Number of frames from A to B")
+        ->capture_default_str()
+        ->check(CLI::Range(1, 100000));
     cmd->add_option("--fps", a->fps, "Frames per second of MP4/GIF output")
         ->capture_default_str()
         ->check(CLI::Range(0.1, 1000.0));
@@ -225,21 +215,57 @@ void add_morph_commands(CLI::App& app) {
         run_morph(*a);
     });
 
-    auto b = std::make_shared<MorphArgs>();
+    struct InbetweenArgs {
+        std::string f0, f1, output, schedule = "linear", shape;
+        double at = 0.5;
+        morph::InbetweenOptions options;
+        bool overwrite = false, json = false;
+    };
+    auto b = std::make_shared<InbetweenArgs>();
     cmd = app.add_subcommand("inbetween",
                              "The frame between two frames, from automatic correspondences");
-    cmd->add_option("f0", b->a, "First frame")->required();
-    cmd->add_option("f1", b->b, "Second frame")->required();
+    cmd->add_option("f0", b->f0, "First frame")->required();
+    cmd->add_option("f1", b->f1, "Second frame")->required();
     cmd->add_option("-o,--output", b->output, "Output image")->required();
-    cmd->add_option("--t", b->at, "Time of the frame between 0 and 1")
+    cmd->add_option("--at", b->at, "Time of the frame between 0 and 1")
         ->capture_default_str()
         ->check(CLI::Range(0.0, 1.0));
-    cmd->add_option("--mesh", b->mesh, "grid[:CxR] (default) or voronoi[:N]");
-    add_schedule_options(cmd, *b);
+    cmd->add_option("--cell", b->options.cell, "Grid cell size of the fitted mesh, pixels")
+        ->capture_default_str()
+        ->check(CLI::Range(2.0, 1000.0));
+    cmd->add_option("--schedule", b->schedule, "Band schedule: linear, bands or sharp")
+        ->capture_default_str()
+        ->check(CLI::IsMember({"linear", "bands", "sharp"}));
+    cmd->add_option("--shape", b->shape, "Geometry timing window START-END (default 0-1)");
+    cmd->add_option("--density", b->options.morph.density, "Mesh samples per output pixel")
+        ->capture_default_str()
+        ->check(density_range());
+    cmd->add_flag("-y,--overwrite", b->overwrite, "Overwrite the output");
+    cmd->add_flag("--json", b->json, "Print a JSON report");
     cmd->callback([b] {
-        b->automatic = true;
-        if (b->at < 0) b->at = 0.5;
-        run_morph(*b);
+        const auto start = std::chrono::steady_clock::now();
+        check_output(b->output, b->overwrite, {b->f0, b->f1});
+        morph::InbetweenOptions o = b->options;
+        o.morph.schedule.kind = morph::parse_schedule_kind(b->schedule);
+        if (!b->shape.empty())
+            o.morph.schedule.shape = morph::parse_level_windows("0:" + b->shape, 1)[0];
+        const Image out = morph::inbetween(read_image(b->f0), read_image(b->f1), b->at, o);
+        write_image(out, b->output);
+        const double seconds = seconds_since(start);
+        if (b->json) {
+            std::printf("%s\n", nlohmann::json{{"f0", b->f0},
+                                               {"f1", b->f1},
+                                               {"output", b->output},
+                                               {"at", b->at},
+                                               {"cell", o.cell},
+                                               {"density", o.morph.density},
+                                               {"seconds", seconds}}
+                                    .dump(2)
+                                    .c_str());
+            return;
+        }
+        std::printf("%s + %s -> %s: t = %g, %g px cells, %.2f s\n", b->f0.c_str(), b->f1.c_str(),
+                    b->output.c_str(), b->at, o.cell, seconds);
     });
 }
 

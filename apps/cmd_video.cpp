@@ -20,11 +20,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// The quality without a rate option: a PSNR target whose rates sit where x264's default (CRF 23)
-// puts the shared clips (carphone 0.25 bpp against x264's 0.12, aerial 0.41 against 0.31, chaplin
-// 0.078 against 0.084, Big Buck Bunny 0.018 against 0.066; 29 and 33 dB were further off).
-constexpr double kDefaultQualityDb = 30;
-
 struct EncodeArgs {
     std::string input, output, grid, motion = "tracked", size, pixel_format = "yuv420p", debug_dir;
     double kbps = 0, quality = 0, density = 2.0, intra_weight = 4, fps = 0;
@@ -93,8 +88,9 @@ void run_encode(const EncodeArgs& a) {
         .levels = a.levels,
         .group = a.group,
         .kbps = a.kbps,
-        .quality = a.kbps > 0 || a.quality > 0 ? a.quality : kDefaultQualityDb,
         .intra_weight = a.intra_weight};
+    if (a.quality > 0) o.quality = a.quality;
+    if (o.kbps > 0) o.quality = 0;  // the rate decides
     std::unique_ptr<video::VideoEncoder> encoder;
     try {
         encoder = std::make_unique<video::VideoEncoder>(a.output, source.width(), source.height(),
@@ -120,10 +116,12 @@ void run_encode(const EncodeArgs& a) {
         psnr_sum += std::min(f.psnr, 100.0);  // identical frames count as 100 dB, as x264 does
         if (o.quality > 0 && f.kind == video::TwvFrameKind::intra && f.quality_target < o.quality &&
             !a.json) {
-            std::fprintf(stderr,
-                         "warning: %s: frame %lld: %.2f dB is out of reach on this mesh (its "
-                         "resampling caps it); coding for %.2f dB\n",
-                         a.input.c_str(), static_cast<long long>(n), o.quality, f.quality_target);
+            char line[160];
+            std::snprintf(line, sizeof line,
+                          "frame %lld: %.2f dB is out of reach on this mesh (its resampling caps "
+                          "it); coding for %.2f dB",
+                          static_cast<long long>(n), o.quality, f.quality_target);
+            warn(str("warning: ", a.input, ": ", line));
         }
         groups += f.kind == video::TwvFrameKind::intra;
         frames.push_back({{"frame", f.number},
@@ -185,7 +183,8 @@ std::pair<int64_t, int64_t> parse_range(const std::string& text) {
         } catch (const std::exception&) {
         }
         if (used != s.size() || v < 0) {
-            throw Error(str("--frames: expected A:B with frame numbers, got \"", text, "\""));
+            throw CLI::ValidationError("--range",
+                                       str("expected A:B with frame numbers, got \"", text, "\""));
         }
         return v;
     };
@@ -195,7 +194,7 @@ std::pair<int64_t, int64_t> parse_range(const std::string& text) {
     }
     const int64_t a = number(text.substr(0, colon), 0);
     const int64_t b = number(text.substr(colon + 1), INT64_MAX);
-    if (b < a) throw Error(str("--frames: the range \"", text, "\" is empty"));
+    if (b < a) throw CLI::ValidationError("--range", str("\"", text, "\" is empty"));
     return {a, b};
 }
 
@@ -225,8 +224,8 @@ void run_decode(const DecodeArgs& a) {
     sink.finish();
     const double seconds = seconds_since(start);
     if (!decoder.damage().empty()) {
-        std::fprintf(stderr, "warning: %s; wrote the %lld frames before it\n",
-                     decoder.damage().c_str(), static_cast<long long>(sink.frames()));
+        warn(
+            str("warning: ", decoder.damage(), "; wrote the ", sink.frames(), " frames before it"));
     }
     if (a.json) {
         std::printf("%s\n", nlohmann::json{{"input", a.input},
@@ -314,8 +313,9 @@ void add_video_commands(CLI::App& app) {
     enc->add_option("-o,--output", e->output, "Output .twv file")->required();
     auto* kbps = enc->add_option("--kbps", e->kbps, "Rate in kbit/s (every frame's bytes capped)")
                      ->check(positive("a rate"));
-    enc->add_option("--quality", e->quality,
-                    "Target PSNR in dB (default 30: about x264's default rate)")
+    enc->add_option("--psnr", e->quality,
+                    str("Target PSNR in dB (default ", video::VideoEncodeOptions{}.quality,
+                        ": about x264's default rate)"))
         ->check(CLI::Range(10.0, 80.0))
         ->excludes(kbps);
     enc->add_option("--grid", e->grid, "Fixed-grid wavelet on the pixels instead: 53 or 97")
@@ -325,8 +325,9 @@ void add_video_commands(CLI::App& app) {
     enc->add_option("--motion-level", e->motion_level,
                     "The moving mesh is T_k of the base grid (finer motion, k levels fewer)")
         ->check(CLI::Range(0, 6));
-    enc->add_option("--density", e->density, "Mesh samples per pixel (default 2)")
-        ->check(positive("a density"));
+    enc->add_option("--density", e->density, "Mesh samples per pixel")
+        ->capture_default_str()
+        ->check(density_range());
     enc->add_option("-J,--levels", e->levels, "Mesh level J, or fixed-grid levels")
         ->check(CLI::Range(1, 12));
     enc->add_option("-g,--group", e->group, "Intra period: frames per group (default 32)")
@@ -353,7 +354,7 @@ void add_video_commands(CLI::App& app) {
     dec->add_option("-o,--output", d->output,
                     "Output: .mp4 (H.264), .mkv (lossless FFV1), .y4m, or a folder for PNG frames")
         ->required();
-    dec->add_option("--frames", d->frames, "Frames A:B (inclusive; A: or :B open), or one frame");
+    dec->add_option("--range", d->frames, "Frames A:B (inclusive; A: or :B open), or one frame");
     dec->add_flag("-y,--overwrite", d->overwrite, "Overwrite the output");
     dec->add_flag("--json", d->json, "Print the result as JSON");
     dec->callback([d] { run_decode(*d); });

@@ -33,7 +33,28 @@ int main(int argc, char** argv) {
         "wavelet transform (Bertram et al., \"Wavelets on Planar Tesselations\")."};
     app.set_version_flag("--version", "tesswave 0.1.0");
     app.require_subcommand(1);
-    app.fallthrough(false);
+    // -q and -v belong to every subcommand: they may come before or after its name.
+    app.fallthrough(true);
+    bool quiet = false, verbose = false;
+    auto* q =
+        app.add_flag("-q,--quiet", quiet,
+                     "Errors only (and --json output): no progress, notes, warnings or summary");
+    app.add_flag("-v,--verbose", verbose, "Each stage on a line of its own, with its time")
+        ->excludes(q);
+    // Known before any subcommand runs (CLI11 runs their callbacks while parsing).
+    for (int i = 1; i < argc; ++i) {
+        const std::string arg = argv[i];
+        if (arg == "-q" || arg == "--quiet") quiet = true;
+        if (arg == "-v" || arg == "--verbose") verbose = true;
+    }
+    bool json = false;
+    for (int i = 1; i < argc; ++i) json = json || std::string(argv[i]) == "--json";
+    if (quiet && !verbose) {
+        tesswave::cli::verbosity() = tesswave::cli::Verbosity::quiet;
+        if (!json && std::freopen("/dev/null", "w", stdout) == nullptr) return 1;
+    } else if (verbose && !quiet) {
+        tesswave::cli::verbosity() = tesswave::cli::Verbosity::verbose;
+    }
     tesswave::cli::add_mesh_commands(app);
     tesswave::cli::add_analyze_command(app);
     tesswave::cli::add_codec_commands(app);

@@ -79,16 +79,17 @@ VideoEncoder::VideoEncoder(const std::string& path, int width, int height, doubl
         int64_t{width} * height > TwvLimits{}.max_pixels) {
         throw Error(str("cannot code ", width, "x", height, " frames"));
     }
-    if ((o.kbps > 0) == (o.quality > 0) || !std::isfinite(o.kbps) || !std::isfinite(o.quality)) {
-        throw Error("give exactly one of a rate (kbps > 0) and a quality (PSNR > 0)");
+    if (!(o.kbps >= 0) || !std::isfinite(o.kbps) || !std::isfinite(o.quality)) {
+        throw Error(str("rate ", o.kbps, " kbps must be a positive number (or 0 for a quality)"));
     }
-    if (o.quality > 0 && (o.quality < 10 || o.quality > 80)) {
+    if (o.kbps == 0 && (o.quality < 10 || o.quality > 80)) {
         throw Error(str("quality ", o.quality, " dB must lie in [10, 80]"));
     }
     if (o.group < 1) throw Error(str("group length ", o.group, " must be at least 1"));
     if (!(o.intra_weight >= 1) || o.intra_weight > 100) {
         throw Error(str("intra weight ", o.intra_weight, " must lie in [1, 100]"));
     }
+    if (options_.kbps > 0) options_.quality = 0;  // one mode: the rate
     header_.width = width;
     header_.height = height;
     fps_fraction(fps, header_);

@@ -295,7 +295,7 @@ void BM_Morph_auto_pair(benchmark::State& state) {
     const AutoSetup& s = auto_setup();
     PairMeshes pair;
     for (auto _ : state) {
-        pair = automatic_pair(s.pair.a, s.pair.b);
+        pair = automatic_pair(s.pair.a, s.pair.b, 24);
         benchmark::DoNotOptimize(pair.b.vertices.data());
     }
     state.counters["matches"] = static_cast<double>(s.matches.a.size());

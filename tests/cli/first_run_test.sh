@@ -3,34 +3,7 @@
 # writes a file that decodes; --lossless gives the image back bit for bit or is refused (exit 2, no
 # file); a quality target out of reach is a warning, not a failure.
 #   first_run_test.sh TESSWAVE_BINARY
-set -uo pipefail
-tesswave=$1
-dir=$(mktemp -d "${TMPDIR:-/tmp}/tesswave-first-run.XXXXXX")
-trap 'rm -rf "$dir"' EXIT
-failures=0 passes=0
-check() {  # check DESCRIPTION COMMAND...: the command must succeed
-    local what=$1
-    shift
-    if "$@" >"$dir/out.txt" 2>"$dir/err.txt"; then
-        echo "ok: $what"
-        passes=$((passes + 1))
-    else
-        echo "FAILED: $what (exit $?): $(head -c 400 "$dir/err.txt")"
-        failures=$((failures + 1))
-    fi
-}
-refuse() {  # refuse DESCRIPTION OUTPUT COMMAND...: exit 2, one line on stderr, no OUTPUT
-    local what=$1 output=$2 status=0
-    shift 2
-    "$@" >"$dir/out.txt" 2>"$dir/err.txt" || status=$?
-    if ((status == 2)) && [[ ! -e $output ]] && (($(wc -l <"$dir/err.txt") == 1)); then
-        echo "ok: $what refused: $(cat "$dir/err.txt")"
-        passes=$((passes + 1))
-    else
-        echo "FAILED: $what: exit $status, output exists: $([[ -e $output ]] && echo yes || echo no)"
-        failures=$((failures + 1))
-    fi
-}
+source "$(dirname "$0")/lib.sh"
 same_pixels() {  # same_pixels A B: the two images have identical pixel values
     "$tesswave" compress "$1" --lossless --grid 53 -o "$dir/a.twi" -y >/dev/null 2>&1 &&
         "$tesswave" compress "$2" --lossless --grid 53 -o "$dir/b.twi" -y >/dev/null 2>&1 &&
@@ -61,14 +34,11 @@ refuse "--lossless with the 9/7" "$dir/refused.twi" \
 check "a PSNR target out of the mesh's reach" \
     "$tesswave" compress "$dir/s/scene.png" --psnr 90 -o "$dir/high.twi"
 if grep -q "out of reach" "$dir/err.txt" && [[ -s $dir/high.twi ]]; then
-    echo "ok: it warns and writes the whole stream"
-    passes=$((passes + 1))
+    pass "it warns and writes the whole stream"
 else
-    echo "FAILED: no warning or no file for an unreachable --psnr"
-    failures=$((failures + 1))
+    fail "no warning or no file for an unreachable --psnr"
 fi
 check "encode the sample clip with no rate option" \
     "$tesswave" encode "$dir/s/clip.mkv" --frames 8 -o "$dir/clip.twv"
 check "decode it" "$tesswave" decode "$dir/clip.twv" -o "$dir/clip.mkv"
-echo "$passes passed, $failures failed"
-exit $((failures > 0))
+finish

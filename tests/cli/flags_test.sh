@@ -1,0 +1,55 @@
+#!/usr/bin/env bash
+# One flag, one meaning: the shared flags behave alike in every subcommand, and a bad option is
+# refused with exit 2 and one line before any output appears.
+#   flags_test.sh TESSWAVE_BINARY
+source "$(dirname "$0")/lib.sh"
+
+check "samples" "$tesswave" samples -o "$dir/s" --size 96x64
+s=$dir/s
+# --mesh: a file or a generator, in compress and analyze alike.
+check "a mesh file" "$tesswave" mesh grid --cells 6x4 --like "$s/scene.png" -o "$dir/m.json"
+for mesh in "$dir/m.json" grid:6x4 voronoi:20; do
+    check "compress --mesh $mesh" "$tesswave" compress "$s/scene.png" --mesh "$mesh" -o "$dir/c.twi" -y
+    check "analyze --mesh $mesh" "$tesswave" analyze "$s/scene.png" --mesh "$mesh" -o "$dir/an" -y
+done
+refuse "compress --mesh voronoi:x" "$dir/bad.twi" \
+    "$tesswave" compress "$s/scene.png" --mesh voronoi:x -o "$dir/bad.twi"
+refuse "morph --mesh with a file" "$dir/bad.mp4" \
+    "$tesswave" morph "$s/pair_a.png" "$s/pair_b.png" --mesh "$dir/m.json" -o "$dir/bad.mp4"
+# -J, --levels and --density in every subcommand that takes them.
+check "mesh draw -J 2" "$tesswave" mesh draw "$dir/m.json" -J 2 -o "$dir/m.png"
+refuse "--density 20" "$dir/bad.twi" \
+    "$tesswave" compress "$s/scene.png" --density 20 -o "$dir/bad.twi"
+refuse "encode --density 0" "$dir/bad.twv" \
+    "$tesswave" encode "$s/clip.mkv" --density 0 -o "$dir/bad.twv"
+# --psnr in compress and encode; --frames a count; --range in decode; --at in morph and inbetween.
+check "encode --psnr 28 --frames 4" \
+    "$tesswave" encode "$s/clip.mkv" --psnr 28 --frames 4 -o "$dir/c.twv"
+check "decode --range 1:2" "$tesswave" decode "$dir/c.twv" --range 1:2 -o "$dir/r"
+if (($(ls "$dir/r" | wc -l) == 2)); then pass "two frames decoded"; else fail "not two frames"; fi
+refuse "decode --range 3:1" "$dir/r2" "$tesswave" decode "$dir/c.twv" --range 3:1 -o "$dir/r2"
+check "morph --at 0.5" \
+    "$tesswave" morph "$s/pair_a.png" "$s/pair_b.png" --points-a "$s/pair_a.txt" \
+    --points-b "$s/pair_b.txt" --at 0.5 -o "$dir/mid.png"
+check "inbetween --at 0.5" "$tesswave" inbetween "$s/pair_a.png" "$s/pair_b.png" --at 0.5 \
+    -o "$dir/ib.png"
+refuse "morph --frames 0" "$dir/bad.gif" \
+    "$tesswave" morph "$s/pair_a.png" "$s/pair_b.png" --frames 0 -o "$dir/bad.gif"
+# Frames go to one writer: unknown extensions are refused before any work.
+refuse "decode -o x.webm" "$dir/x.webm" "$tesswave" decode "$dir/c.twv" -o "$dir/x.webm"
+refuse "morph -o x.avi" "$dir/x.avi" \
+    "$tesswave" morph "$s/pair_a.png" "$s/pair_b.png" -o "$dir/x.avi"
+check "decode to a GIF" "$tesswave" decode "$dir/c.twv" -o "$dir/c.gif"
+# Lists: comma-separated or repeated.
+refuse "analyze --keep 200" "$dir/an2" "$tesswave" analyze "$s/scene.png" --keep 10,200 -o "$dir/an2"
+check "analyze --keep 10 --keep 1" \
+    "$tesswave" analyze "$s/scene.png" --keep 10 --keep 1 -o "$dir/an" -y --json
+if grep -q '"keep_percent": 1' "$dir/out.txt"; then pass "both percentages kept"; else fail "--keep"; fi
+# -q: nothing but errors (and --json); -v: a line per stage; both before or after the subcommand.
+check "-q compress" "$tesswave" compress "$s/scene.png" -o "$dir/q.twi" -q
+if [[ ! -s $dir/out.txt && ! -s $dir/err.txt ]]; then pass "-q is silent"; else fail "-q printed"; fi
+check "-q compress --psnr 90" "$tesswave" -q compress "$s/scene.png" --psnr 90 -o "$dir/q.twi" -y
+if [[ ! -s $dir/err.txt ]]; then pass "-q hides the warning"; else fail "-q warned"; fi
+check "-v compress" "$tesswave" -v compress "$s/scene.png" -o "$dir/v.twi"
+if grep -q "coding" "$dir/err.txt"; then pass "-v names the stages"; else fail "-v silent"; fi
+finish
