@@ -226,7 +226,7 @@ void compare_at_rate(Session& s, const ClipInfo& clip, const Image& original, co
                                              rate.text, rate.kbps ? "bit/s)" : " bpp)")};
     for (VideoMethod m : s.methods) {
         const RunContext context{
-            &clip, s.source, s.args.group, s.scratch, [&](double f, const std::string& what) {
+            &clip, s.source, s.args.group, s.scratch, [&](double f, const char* what) {
                 const std::string stage =
                     str(clip.stem, " ", method_id(m), " ", rate.text, " ", what);
                 s.bar.update((s.done + f * clip.pixels()) / s.total, stage.substr(0, 30).c_str());

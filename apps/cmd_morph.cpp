@@ -53,10 +53,10 @@ void check_morph_output(const MorphArgs& a) {
 }
 
 morph::Correspondences correspondences(const MorphArgs& a, const Image& ia, const Image& ib,
-                                       nlohmann::json& report) {
+                                       nlohmann::json& report, const Progress& progress) {
     morph::Correspondences c;
     if (a.automatic) {
-        const morph::Matches m = morph::auto_match(ia, ib);
+        const morph::Matches m = morph::auto_match(ia, ib, {.progress = progress});
         report["matches"] = {{"flow", m.from_flow},
                              {"features", m.from_features},
                              {"rejected_forward_backward", m.rejected_fb},
@@ -113,9 +113,14 @@ void run_morph(const MorphArgs& a) {
     const Image ia = read_image(a.a), ib = read_image(a.b);
     nlohmann::json report = {{"a", a.a}, {"b", a.b}, {"output", a.output}};
     ProgressBar bar;
+    // One bar over the whole job: matching, fitting, the morph's set-up, then the frames.
+    const Progress progress = [&bar](double done, const char* stage) { bar.update(done, stage); };
+    const int frames = a.at >= 0 ? 1 : a.frames;
+    const double setup = 0.5 * 10 / (10.0 + frames);  // the set-up's share, about 10 frames' worth
     bar.update(0.0, "correspondences");
-    const morph::Correspondences c = correspondences(a, ia, ib, report);
-    bar.update(0.1, "meshes");
+    const morph::Correspondences c =
+        correspondences(a, ia, ib, report, progress_range(progress, 0, 0.6 * setup));
+    bar.update(0.6 * setup, "meshes");
     const morph::PairMeshes pair = pair_meshes(a, c, ia, ib);
     report["correspondences"] = c.a.size();
     report["mesh"] = pair.description;
@@ -126,11 +131,10 @@ void run_morph(const MorphArgs& a) {
         o.height = h;
     }
     // Schedules name the levels 0 (base) .. J.
-    const int out_pixels =
-        (o.width > 0 ? o.width : ia.width) * (o.height > 0 ? o.height : ia.height);
-    if (o.levels == 0) o.levels = level_for_density(pair.a, out_pixels, a.density);
+    o.levels = morph::morph_levels(pair.a, o.width > 0 ? o.width : ia.width,
+                                   o.height > 0 ? o.height : ia.height, o);
     o.schedule = schedule(a, o.levels + 1);
-    bar.update(0.2, "transforms");
+    o.progress = progress_range(progress, 0.7 * setup, setup);
     const morph::Morph morph(ia, ib, pair.a, pair.b, o);
     report["levels"] = morph.levels();
     report["samples"] = morph.samples();
@@ -140,7 +144,7 @@ void run_morph(const MorphArgs& a) {
     } else {
         FrameSink sink(a.output, morph.width(), morph.height(), a.fps);
         for (int k = 0; k < a.frames; ++k) {
-            bar.update(0.3 + 0.7 * k / a.frames, "frames");
+            bar.update(setup + (1 - setup) * k / a.frames, "frames");
             const double t = a.frames == 1 ? 0.0 : static_cast<double>(k) / (a.frames - 1);
             sink.write(morph.frame(t, fo));
         }

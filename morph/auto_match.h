@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "core/math/geometry.h"
+#include "core/math/progress.h"
 #include "core/math/image.h"
 
 namespace tesswave::morph {
@@ -32,7 +33,7 @@ struct AutoMatchOptions {
     double min_texture = 1e-5;
     // The zero-mean normalized cross-correlation of 9x9 windows a match needs.
     double min_similarity = 0.5;
-    std::function<void(double, const char*)> progress = {};  // fraction done, stage
+    Progress progress = {};  // optional
 };
 
 struct Matches {

@@ -38,6 +38,12 @@ std::vector<Vec2> scaled(const Mesh& m, double W, double H) {
 
 }  // namespace
 
+int morph_levels(const Mesh& mesh_a, int width, int height, const MorphOptions& options) {
+    // Sample counts per level depend on the topology alone, not on where the vertices are.
+    return options.levels > 0 ? options.levels
+                              : level_for_density(mesh_a, width * height, options.density);
+}
+
 Morph::Morph(const Image& a, const Image& b, const Mesh& mesh_a, const Mesh& mesh_b,
              const MorphOptions& options)
     : options_(options) {
@@ -59,14 +65,15 @@ Morph::Morph(const Image& a, const Image& b, const Mesh& mesh_a, const Mesh& mes
     va_ = scaled(mesh_a, width_, height_);
     vb_ = scaled(mesh_b, width_, height_);
     topology_.vertices = va_;
-    const int J = options.levels > 0
-                      ? options.levels
-                      : level_for_density(topology_, width_ * height_, options.density);
+    const int J = morph_levels(mesh_a, width_, height_, options);
+    report(options.progress, 0.0, "hierarchy");
     hierarchy_ = build_hierarchy(topology_, {.levels = J});
     preview_ = build_hierarchy(topology_, {.levels = std::max(1, J - 2)});
     const int channels = (a.channels() == 4 && b.channels() == 4) ? 4 : 3;
+    report(options.progress, 0.2, "sampling");
     samples_a_ = sample_image(with_channels(a, channels), hierarchy_, mesh_a.vertices);
     samples_b_ = sample_image(with_channels(b, channels), hierarchy_, mesh_b.vertices);
+    report(options.progress, 0.5, "residuals");
     if (options.residual) {
         for (int k = 0; k < 2; ++k) {
             const Image& image = k == 0 ? a : b;
@@ -89,6 +96,7 @@ Morph::Morph(const Image& a, const Image& b, const Mesh& mesh_a, const Mesh& mes
             (k == 0 ? residual_a_ : residual_b_) = std::move(r);
         }
     }
+    report(options.progress, 0.8, "transforms");
     coeff_a_ = samples_a_;
     coeff_b_ = samples_b_;
     forward_transform(hierarchy_, spans(coeff_a_));

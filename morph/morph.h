@@ -10,6 +10,7 @@
 #include "core/math/hierarchy.h"
 #include "core/math/image.h"
 #include "core/math/mesh.h"
+#include "core/math/progress.h"
 #include "core/math/render.h"
 #include "schedule.h"
 
@@ -23,7 +24,12 @@ struct MorphOptions {
     // Carry the detail the mesh cannot hold (each image minus its own resampling) by a pixel
     // warp through the same mesh map, blended like the finest band: no resampling loss.
     bool residual = true;
+    Progress progress = {};  // sampling and transforms (the constructor's work)
 };
+
+// J of a morph: options.levels, or the level of mesh_a (scaled to the output size) closest to
+// options.density samples a pixel. The CLI asks it to name the schedule's levels.
+int morph_levels(const Mesh& mesh_a, int width, int height, const MorphOptions& options);
 
 struct FrameOptions {
     bool preview = false;  // render the coarse levels only (J - 2, at least 1): fast look-ups

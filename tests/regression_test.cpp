@@ -71,7 +71,7 @@ TEST(Robustness, level_counts_do_not_overflow) {
 // random_sites() redraws coincident sites until all are distinct, which never happens when the
 // domain holds fewer representable points than sites.
 TEST(Robustness, voronoi_on_a_subnormal_domain_terminates) {
-    expect_error_or_return_in_child([] { voronoi_mesh(5e-324, 5e-324, {.sites = 5}); }, 3);
+    expect_error_or_return_in_child([] { voronoi_mesh(5e-324, 5e-324, {.sites = 5}); });
 }
 
 // Lloyd on extreme domains: a cell area underflows (or overflows), the centroid and then the site
@@ -104,7 +104,7 @@ TEST(Robustness, validate_is_not_quadratic_in_long_edges_or_equal_x) {
     mesh.vertices.push_back({1, 0.5});
     for (int i = 0; i <= n; ++i) mesh.vertices.push_back({0, static_cast<double>(i) / n});
     for (int32_t i = 1; i <= n; ++i) mesh.add_face(std::vector<int32_t>{0, i + 1, i});
-    expect_error_or_return_in_child([&] { validate(mesh); }, 60);
+    expect_error_or_return_in_child([&] { validate(mesh); });
 }
 
 // A convex n-gon in the middle of [0,100]^2, and optionally its outside fanned to the domain
@@ -138,10 +138,10 @@ TEST(Robustness, big_faces_are_not_quadratic) {
     Mesh twice = polygon_mesh(600'000, false);
     twice.face_corners.push_back(0);
     ++twice.face_offsets.back();
-    expect_error_or_return_in_child([&] { validate(twice); }, 10);
+    expect_error_or_return_in_child([&] { validate(twice); });
     ASSERT_TRUE(validate(polygon_mesh(1000, true)).ok());  // the construction is valid
     const Mesh filled = polygon_mesh(300'000, true);
-    expect_error_or_return_in_child([&] { sample_count(filled, 1); }, 10);
+    expect_error_or_return_in_child([&] { sample_count(filled, 1); });
 }
 
 // QuadLocator divides by the domain size and casts to int without checking either.

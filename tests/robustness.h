@@ -1,9 +1,8 @@
 // Shared by the robustness and regression tests: run a call and classify what it did, or run it
-// in a child process with a time limit, so that a crash or a hang fails one test only.
+// in a child process, so that a crash fails one test only (CTest times out a hang).
 #pragma once
 
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <cstdlib>
 #include <limits>
@@ -38,18 +37,17 @@ Outcome outcome_of(F&& f) {
     }
 }
 
-// Runs `body` in a child process (a gtest death test) with a time limit, so that a crash, a stack
-// overflow, a hang or a sanitizer abort fails this test alone rather than the whole binary. The
-// child exits with 0 when `body` returns or throws tesswave::Error; `body` may exit otherwise
-// itself to report a wrong result.
+// Runs `body` in a child process (a gtest death test), so that a crash, a stack overflow or a
+// sanitizer abort fails this test alone rather than the whole binary. The child exits with 0 when
+// `body` returns or throws tesswave::Error; `body` may exit otherwise itself to report a wrong
+// result. No clock here: a hang is caught by CTest's per-test timeout (tests/CMakeLists.txt).
 template <class F>
-void expect_error_or_return_in_child(F body, unsigned seconds = 20) {
+void expect_error_or_return_in_child(F body) {
     // Other tests in this binary start library thread pools (OpenCV, OpenImageIO); a plain fork
     // of a threaded process can deadlock, so the child re-executes the binary instead.
     GTEST_FLAG_SET(death_test_style, "threadsafe");
     EXPECT_EXIT(
         {
-            alarm(seconds);
             try {
                 body();
             } catch (const Error&) {

@@ -60,10 +60,9 @@ MotionStep MeshMotion::fit(std::span<const Vec2> previous) const {
         step.failure = str("median fit residual ", *middle, " px exceeds ", options_.max_median);
         return step;
     }
-    Mesh moved = rest_;
-    moved.vertices = r.vertices;
     for (int f = 0; f < rest_.num_faces(); ++f) {
-        if (face_signed_area(moved, f) < options_.min_area_ratio * face_signed_area(rest_, f)) {
+        if (face_signed_area(rest_, r.vertices, f) <
+            options_.min_area_ratio * face_signed_area(rest_, f)) {
             step.failure =
                 str("face ", f, " shrank below ", options_.min_area_ratio, " of its rest area");
             return step;
@@ -75,8 +74,6 @@ MotionStep MeshMotion::fit(std::span<const Vec2> previous) const {
 
 void MeshMotion::pin(std::span<const Vec2> vertices, bool restart) {
     if (restart) rest_point_.clear();
-    Mesh moved = rest_;
-    moved.vertices.assign(vertices.begin(), vertices.end());
     std::vector<int64_t> ids;
     std::vector<Vec2> points;
     std::unordered_map<int64_t, Vec2> kept;
@@ -89,7 +86,7 @@ void MeshMotion::pin(std::span<const Vec2> vertices, bool restart) {
             points.push_back(t.position);
         }
     }
-    const auto pins = pin_points(moved, points);
+    const auto pins = pin_points(rest_, vertices, points);
     for (size_t i = 0; i < pins.size(); ++i) {
         if (pins[i]) kept.emplace(ids[i], pinned_position(rest_, rest_.vertices, *pins[i]));
     }

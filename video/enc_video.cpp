@@ -249,9 +249,7 @@ EncodedFrame VideoEncoder::encode(const Image& frame) {
             v = vertices_;
         } else if (step.vertices) {
             v = round_to_motion_unit(*step.vertices);
-            Mesh moved = *rest;
-            moved.vertices = v;
-            if (!validate(moved, {.max_problems = 1}).ok()) {
+            if (!validate(*rest, v, {.max_problems = 1}).ok()) {
                 info.new_group = "the mesh is invalid at the file's 1/4-pixel precision";
             }
         } else {

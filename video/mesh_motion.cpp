@@ -156,9 +156,7 @@ std::vector<Vec2> decode_motion(std::span<const uint8_t> bytes, std::span<const 
         }
         out[i] = {c[0] / kMotionUnit, c[1] / kMotionUnit};
     }
-    Mesh moved = mesh;
-    moved.vertices = out;
-    if (!validate(moved, {.max_problems = 1}).ok()) {
+    if (!validate(mesh, out, {.max_problems = 1}).ok()) {
         throw Error(str(what, ": the moved mesh is not valid"));
     }
     return out;

@@ -154,8 +154,10 @@ class Traversal {
                       int32_t& v, uint8_t& known) {
         const int bit = side_.bit(m.significance[pa][nb / 3][nb % 3], (std::abs(v) >> p) & 1);
         if (side_.stopped()) return false;
+        // Known only once settled: a stream cut before the sign leaves the coefficient unknown.
+        if (bit && !become_significant(m, state, k, id, p, v)) return false;
         known = static_cast<uint8_t>(p);
-        return !bit || become_significant(m, state, k, id, p, v);
+        return true;
     }
 
     // Codes the sign of a coefficient whose bit p is its first 1, and records it significant.
@@ -204,8 +206,8 @@ class Traversal {
         for (int i = 0; i < first; ++i) known[layout_.order[k + i]] = static_cast<uint8_t>(p);
         if (!any) return kRun;
         const int32_t id = layout_.order[k + first];
-        known[id] = static_cast<uint8_t>(p);
         if (!become_significant(m, state, k + first, id, p, value[id])) return 0;
+        known[id] = static_cast<uint8_t>(p);
         return first + 1;
     }
 

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "core/codec/twi_format.h"
+#include "core/math/progress.h"
 #include "core/math/image.h"
 #include "core/math/mesh.h"
 
@@ -37,7 +38,7 @@ struct StillOptions {
     double density = 1.0;  // samples per pixel when J is chosen
     int norm_probes = 1;   // impulses per band for the band norms
     bool measure = true;   // decode the result once and report its PSNR
-    std::function<void(double done, const char* stage)> progress = {};
+    Progress progress = {};  // optional
 };
 
 struct StillResult {

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "core/io/frame_source.h"
+#include "core/math/progress.h"
 #include "core/math/image.h"
 
 namespace tesswave::eval {
@@ -43,7 +44,7 @@ struct RunContext {
     int group = 32;           // intra period of every method (snow's and x264's gop)
     std::string scratch_dir;  // where our .twv streams live while they are decoded
     // Called as the run proceeds: fraction of this run done, and what it is doing.
-    std::function<void(double, const std::string&)> progress;
+    Progress progress;
 };
 
 struct VideoRow {

@@ -219,7 +219,7 @@ PeerRun search_quality(const RunContext& c, VideoMethod method, double target_bp
     for (int i = 0; i < kMaxTries; ++i) {
         o.quality = k.logarithmic ? std::exp(x) : x;
         PeerRun run = run_peer_once(c, method, target_bpp, o, [&](double f) {
-            c.progress((i + f) / kMaxTries, str(k.name, " try ", i + 1));
+            c.progress((i + f) / kMaxTries, str(k.name, " try ", i + 1).c_str());
         });
         const double error = std::log(run.row.bytes / target_bytes);
         if (std::abs(error) < best_error) {

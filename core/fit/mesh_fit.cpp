@@ -23,18 +23,17 @@ constexpr int kMaxIterations = 100'000;
 bool finite(Vec2 p) { return std::isfinite(p.x) && std::isfinite(p.y); }
 
 // The T1 quads of a mesh, straight from its faces (the numbering of hierarchy.h's refine()).
-std::vector<Quad> t1_quads_of(const Mesh& mesh) {
+std::vector<Quad> t1_quads_of(const Mesh& mesh, std::span<const Vec2> positions) {
     std::vector<Quad> quads(mesh.face_corners.size());
     for (int f = 0; f < mesh.num_faces(); ++f) {
         auto c = mesh.face(f);
         const size_t n = c.size();
         Vec2 centroid{};
-        for (int32_t v : c) centroid = centroid + mesh.vertices[v];
+        for (int32_t v : c) centroid = centroid + positions[v];
         centroid = (1.0 / n) * centroid;
         for (size_t s = 0; s < n; ++s) {
-            const Vec2 here = mesh.vertices[c[s]];
-            const Vec2 next = mesh.vertices[c[(s + 1) % n]],
-                       prev = mesh.vertices[c[(s + n - 1) % n]];
+            const Vec2 here = positions[c[s]];
+            const Vec2 next = positions[c[(s + 1) % n]], prev = positions[c[(s + n - 1) % n]];
             quads[mesh.face_offsets[f] + s] = {here, lerp(here, next, 0.5), centroid,
                                                lerp(prev, here, 0.5)};
         }
@@ -456,8 +455,9 @@ struct FitProblem {
 };
 
 // Point location on the T1 quads; a quad's face by binary search in the face offsets.
-std::vector<std::optional<PinnedPoint>> locate(const Mesh& mesh, std::span<const Vec2> points) {
-    QuadLocator locator(t1_quads_of(mesh), mesh.width, mesh.height);
+std::vector<std::optional<PinnedPoint>> locate(const Mesh& mesh, std::span<const Vec2> positions,
+                                               std::span<const Vec2> points) {
+    QuadLocator locator(t1_quads_of(mesh, positions), mesh.width, mesh.height);
     std::vector<std::optional<PinnedPoint>> pins(points.size());
     for (size_t k = 0; k < points.size(); ++k) {
         if (const auto hit = locator.locate(points[k])) {
@@ -471,7 +471,7 @@ std::vector<std::optional<PinnedPoint>> locate(const Mesh& mesh, std::span<const
 }
 
 std::vector<PinnedPoint> pin_all(const Mesh& mesh, std::span<const Vec2> points) {
-    const auto located = locate(mesh, points);
+    const auto located = locate(mesh, mesh.vertices, points);
     std::vector<PinnedPoint> pins(points.size());
     for (size_t k = 0; k < points.size(); ++k) {
         if (!located[k]) {
@@ -536,8 +536,14 @@ MeshFitResult finish(const FitProblem& fit, const std::vector<PinnedPoint>& pins
 }  // namespace
 
 std::vector<std::optional<PinnedPoint>> pin_points(const Mesh& mesh, std::span<const Vec2> points) {
-    require_valid(mesh, "pin points");
-    return locate(mesh, points);
+    return pin_points(mesh, mesh.vertices, points);
+}
+
+std::vector<std::optional<PinnedPoint>> pin_points(const Mesh& mesh,
+                                                   std::span<const Vec2> positions,
+                                                   std::span<const Vec2> points) {
+    require_valid(mesh, positions, "pin points");
+    return locate(mesh, positions, points);
 }
 
 Vec2 pinned_position(const Mesh& mesh, std::span<const Vec2> vertices, const PinnedPoint& pin) {

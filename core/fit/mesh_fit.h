@@ -37,6 +37,7 @@
 
 #include "core/math/geometry.h"
 #include "core/math/mesh.h"
+#include "core/math/progress.h"
 
 namespace tesswave {
 
@@ -51,6 +52,10 @@ struct PinnedPoint {
 // Locates each point on the T1 quads of a valid mesh (Error otherwise); nullopt for a point
 // outside the domain or not finite.
 std::vector<std::optional<PinnedPoint>> pin_points(const Mesh& mesh, std::span<const Vec2> points);
+// The same with the mesh's topology at `positions` (one per vertex): no copy of the topology.
+std::vector<std::optional<PinnedPoint>> pin_points(const Mesh& mesh,
+                                                   std::span<const Vec2> positions,
+                                                   std::span<const Vec2> points);
 
 // Where a pinned point lands when the mesh's vertices move to `vertices` (one per mesh vertex).
 // Throws Error for a pin that does not name a T1 quad of the mesh.
@@ -72,8 +77,8 @@ struct MeshFitOptions {
     // Optional (video): the previous frame's vertices on B, the start of the fit when they form a
     // valid mesh there, and the target of the temporal term.
     std::span<const Vec2> previous = {};
-    double temporal_weight = 0.0;                                       // w_t; needs `previous`
-    std::function<void(double done, const char* stage)> progress = {};  // optional
+    double temporal_weight = 0.0;  // w_t; needs `previous`
+    Progress progress = {};        // optional
 };
 
 struct MeshFitResult {

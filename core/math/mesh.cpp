@@ -18,10 +18,14 @@ double signed_area(std::span<const Vec2> polygon) {
 }
 
 double face_signed_area(const Mesh& mesh, int f) {
+    return face_signed_area(mesh, mesh.vertices, f);
+}
+
+double face_signed_area(const Mesh& mesh, std::span<const Vec2> positions, int f) {
     auto corners = mesh.face(f);
     double twice = 0.0;
     for (size_t i = 0; i < corners.size(); ++i) {
-        twice += cross(mesh.vertices[corners[i]], mesh.vertices[corners[(i + 1) % corners.size()]]);
+        twice += cross(positions[corners[i]], positions[corners[(i + 1) % corners.size()]]);
     }
     return 0.5 * twice;
 }

@@ -35,6 +35,8 @@ struct Mesh {
 // valid mesh has (counterclockwise in (x, y), which is clockwise on screen where y points down).
 double signed_area(std::span<const Vec2> polygon);
 double face_signed_area(const Mesh& mesh, int f);
+// The same with the vertices at `positions` (one per vertex of the mesh's topology).
+double face_signed_area(const Mesh& mesh, std::span<const Vec2> positions, int f);
 
 // The undirected edges of a mesh, each with its one or two faces (the second is -1 on the
 // border), found once and numbered in order of first appearance along the faces.

@@ -28,7 +28,7 @@ class Collector {
 
 std::string fmt_point(Vec2 p) { return str("(", p.x, ", ", p.y, ")"); }
 
-bool check_domain_and_vertices(const Mesh& mesh, Collector& out) {
+bool check_domain_and_vertices(const Mesh& mesh, std::span<const Vec2> P, Collector& out) {
     if (!(std::isfinite(mesh.width) && std::isfinite(mesh.height) && mesh.width > 0 &&
           mesh.height > 0)) {
         out.add(str("domain: width and height must be finite and positive, got ", mesh.width, " x ",
@@ -43,8 +43,8 @@ bool check_domain_and_vertices(const Mesh& mesh, Collector& out) {
         return false;
     }
     if (mesh.num_faces() == 0) out.add("mesh: has no faces");
-    for (int v = 0; v < mesh.num_vertices() && !out.full(); ++v) {
-        Vec2 p = mesh.vertices[v];
+    for (int v = 0; v < static_cast<int>(P.size()) && !out.full(); ++v) {
+        Vec2 p = P[v];
         if (!std::isfinite(p.x) || !std::isfinite(p.y)) {
             out.add(str("vertex ", v, ": non-finite coordinate"));
         } else if (p.x < 0 || p.y < 0 || p.x > mesh.width || p.y > mesh.height) {
@@ -55,9 +55,9 @@ bool check_domain_and_vertices(const Mesh& mesh, Collector& out) {
     return !out.any();
 }
 
-bool check_face_indices(const Mesh& mesh, Collector& out) {
+bool check_face_indices(const Mesh& mesh, std::span<const Vec2> P, Collector& out) {
     bool ok = true;
-    std::vector<int32_t> seen_in(mesh.vertices.size(), -1);  // the last face that named a vertex
+    std::vector<int32_t> seen_in(P.size(), -1);  // the last face that named a vertex
     for (int f = 0; f < mesh.num_faces() && !out.full(); ++f) {
         auto corners = mesh.face(f);
         if (corners.size() < 3) {
@@ -66,7 +66,7 @@ bool check_face_indices(const Mesh& mesh, Collector& out) {
             continue;
         }
         for (size_t i = 0; i < corners.size(); ++i) {
-            if (corners[i] < 0 || corners[i] >= mesh.num_vertices()) {
+            if (corners[i] < 0 || corners[i] >= static_cast<int>(P.size())) {
                 out.add(str("face ", f, ": corner ", i, " refers to vertex ", corners[i],
                             ", which does not exist"));
                 ok = false;
@@ -83,14 +83,14 @@ bool check_face_indices(const Mesh& mesh, Collector& out) {
 
 // Convexity with a scale-aware tolerance: a corner whose turn is below ~1e-10 radians counts as
 // a straight angle, which DESIGN.md 2.1 forbids (every interior angle strictly below 180).
-bool check_face_shapes(const Mesh& mesh, Collector& out) {
+bool check_face_shapes(const Mesh& mesh, std::span<const Vec2> P, Collector& out) {
     const double diag = std::hypot(mesh.width, mesh.height);
     std::vector<int> negative;
     int positive = 0;
     bool ok = true;
     for (int f = 0; f < mesh.num_faces() && !out.full(); ++f) {
         auto corners = mesh.face(f);
-        double area = face_signed_area(mesh, f);
+        double area = face_signed_area(mesh, P, f);
         if (std::abs(area) <= 1e-12 * diag * diag) {
             out.add(str("face ", f, ": degenerate (zero area)"));
             ok = false;
@@ -100,9 +100,9 @@ bool check_face_shapes(const Mesh& mesh, Collector& out) {
         (area > 0 ? ++positive : (negative.push_back(f), 0));
         const size_t n = corners.size();
         for (size_t i = 0; i < n; ++i) {
-            Vec2 prev = mesh.vertices[corners[(i + n - 1) % n]];
-            Vec2 here = mesh.vertices[corners[i]];
-            Vec2 next = mesh.vertices[corners[(i + 1) % n]];
+            Vec2 prev = P[corners[(i + n - 1) % n]];
+            Vec2 here = P[corners[i]];
+            Vec2 next = P[corners[(i + 1) % n]];
             Vec2 a = here - prev;
             Vec2 b = next - here;
             if (sign * cross(a, b) <= 1e-10 * norm(a) * norm(b)) {
@@ -129,10 +129,10 @@ bool check_face_shapes(const Mesh& mesh, Collector& out) {
     return ok;
 }
 
-void check_vertex_use(const Mesh& mesh, Collector& out) {
-    std::vector<char> used(mesh.vertices.size(), 0);
+void check_vertex_use(const Mesh& mesh, std::span<const Vec2> P, Collector& out) {
+    std::vector<char> used(P.size(), 0);
     for (int32_t v : mesh.face_corners) used[v] = 1;
-    for (int v = 0; v < mesh.num_vertices() && !out.full(); ++v) {
+    for (int v = 0; v < static_cast<int>(P.size()) && !out.full(); ++v) {
         if (!used[v]) out.add(str("vertex ", v, ": unused (no face refers to it)"));
     }
     // Duplicates within eps: vertices hashed into eps-sized cells, each compared with the 3x3
@@ -142,16 +142,16 @@ void check_vertex_use(const Mesh& mesh, Collector& out) {
         return static_cast<uint64_t>(cx) * 0x9E3779B97F4A7C15ull ^ static_cast<uint64_t>(cy);
     };
     std::unordered_multimap<uint64_t, int32_t> cells;
-    cells.reserve(mesh.vertices.size());
-    for (int32_t v = 0; v < mesh.num_vertices() && !out.full(); ++v) {
-        const Vec2 p = mesh.vertices[v];
+    cells.reserve(P.size());
+    for (int32_t v = 0; v < static_cast<int>(P.size()) && !out.full(); ++v) {
+        const Vec2 p = P[v];
         const int64_t cx = static_cast<int64_t>(std::floor(p.x / eps));
         const int64_t cy = static_cast<int64_t>(std::floor(p.y / eps));
         for (int64_t dy = -1; dy <= 1; ++dy) {
             for (int64_t dx = -1; dx <= 1; ++dx) {
                 auto [first, last] = cells.equal_range(key(cx + dx, cy + dy));
                 for (auto it = first; it != last; ++it) {
-                    const Vec2 q = mesh.vertices[it->second];
+                    const Vec2 q = P[it->second];
                     if (std::abs(q.x - p.x) <= eps && std::abs(q.y - p.y) <= eps) {
                         out.add(str("vertex ", v, ": duplicate of vertex ", it->second, " at ",
                                     fmt_point(q)));
@@ -166,25 +166,26 @@ void check_vertex_use(const Mesh& mesh, Collector& out) {
 // A T-node is a vertex inside another edge. Vertices are bucketed on a grid, and each edge visits
 // only the cells along it (a walk in steps of a cell, with the neighbouring cells), so long edges
 // cost their length in cells, not the area of their bounding box.
-void check_t_nodes(const Mesh& mesh, const MeshEdges& edges, Collector& out) {
-    const int side = std::max(1, static_cast<int>(std::sqrt(mesh.vertices.size() / 2.0)));
+void check_t_nodes(const Mesh& mesh, std::span<const Vec2> P, const MeshEdges& edges,
+                   Collector& out) {
+    const int side = std::max(1, static_cast<int>(std::sqrt(P.size() / 2.0)));
     const double cw = mesh.width / side, ch = mesh.height / side;
     auto cell = [&](double c, double size) {
         return std::clamp(static_cast<int>(c / size), 0, side - 1);
     };
-    std::vector<int32_t> start(side * side + 1, 0), items(mesh.vertices.size());
-    for (Vec2 p : mesh.vertices) ++start[cell(p.y, ch) * side + cell(p.x, cw) + 1];
+    std::vector<int32_t> start(side * side + 1, 0), items(P.size());
+    for (Vec2 p : P) ++start[cell(p.y, ch) * side + cell(p.x, cw) + 1];
     std::partial_sum(start.begin(), start.end(), start.begin());
     std::vector<int32_t> fill(start.begin(), start.end() - 1);
-    for (int v = 0; v < mesh.num_vertices(); ++v) {
-        Vec2 p = mesh.vertices[v];
+    for (int v = 0; v < static_cast<int>(P.size()); ++v) {
+        Vec2 p = P[v];
         items[fill[cell(p.y, ch) * side + cell(p.x, cw)]++] = v;
     }
     const double eps = 1e-9 * std::hypot(mesh.width, mesh.height);
     std::vector<int32_t> stamp(side * side, -1);  // the last edge that visited a cell
     for (size_t e = 0; e < edges.vertices.size() && !out.full(); ++e) {
         const int32_t ia = edges.vertices[e][0], ib = edges.vertices[e][1];
-        const Vec2 a = mesh.vertices[ia], b = mesh.vertices[ib];
+        const Vec2 a = P[ia], b = P[ib];
         const Vec2 d = b - a;
         const double len2 = dot(d, d);
         auto visit = [&](int cx, int cy) {
@@ -194,7 +195,7 @@ void check_t_nodes(const Mesh& mesh, const MeshEdges& edges, Collector& out) {
             for (int32_t k = start[c]; k < start[c + 1]; ++k) {
                 const int32_t v = items[k];
                 if (v == ia || v == ib) continue;
-                const Vec2 p = mesh.vertices[v];
+                const Vec2 p = P[v];
                 const double t = dot(p - a, d) / len2;
                 if (t <= 0 || t >= 1) continue;
                 if (norm(p - lerp(a, b, t)) <= eps) {
@@ -242,12 +243,13 @@ void check_edges(const Mesh& mesh, const MeshEdges& edges, Collector& out) {
     }
 }
 
-void check_boundary_and_valence(const Mesh& mesh, const MeshEdges& edges, Collector& out) {
+void check_boundary_and_valence(const Mesh& mesh, std::span<const Vec2> P, const MeshEdges& edges,
+                                Collector& out) {
     auto side_mask = [&](Vec2 p) {
         return (p.x == 0 ? 1 : 0) | (p.x == mesh.width ? 2 : 0) | (p.y == 0 ? 4 : 0) |
                (p.y == mesh.height ? 8 : 0);
     };
-    std::vector<int> degree(mesh.vertices.size(), 0), boundary_degree(mesh.vertices.size(), 0);
+    std::vector<int> degree(P.size(), 0), boundary_degree(P.size(), 0);
     for (size_t e = 0; e < edges.vertices.size(); ++e) {
         auto [a, b] = edges.vertices[e];
         ++degree[a];
@@ -255,13 +257,13 @@ void check_boundary_and_valence(const Mesh& mesh, const MeshEdges& edges, Collec
         if (edges.faces[e][1] != -1) continue;
         ++boundary_degree[a];
         ++boundary_degree[b];
-        if ((side_mask(mesh.vertices[a]) & side_mask(mesh.vertices[b])) == 0 && !out.full()) {
+        if ((side_mask(P[a]) & side_mask(P[b])) == 0 && !out.full()) {
             out.add(
                 str("edge (", a, ", ", b,
                     "): gap: a boundary edge (one face) that does not lie on the domain border"));
         }
     }
-    for (int v = 0; v < mesh.num_vertices() && !out.full(); ++v) {
+    for (int v = 0; v < static_cast<int>(P.size()) && !out.full(); ++v) {
         if (degree[v] == 0) continue;
         if (boundary_degree[v] == 0 && degree[v] < 3) {
             out.add(str("vertex ", v, ": interior vertex of valence ", degree[v],
@@ -273,9 +275,9 @@ void check_boundary_and_valence(const Mesh& mesh, const MeshEdges& edges, Collec
     }
 }
 
-void check_area(const Mesh& mesh, Collector& out) {
+void check_area(const Mesh& mesh, std::span<const Vec2> P, Collector& out) {
     double sum = 0.0;
-    for (int f = 0; f < mesh.num_faces(); ++f) sum += std::abs(face_signed_area(mesh, f));
+    for (int f = 0; f < mesh.num_faces(); ++f) sum += std::abs(face_signed_area(mesh, P, f));
     const double domain = mesh.width * mesh.height;
     if (std::abs(sum - domain) > 1e-9 * domain) {
         out.add(str("faces: ", sum < domain ? "gap" : "overlap", ": face areas sum to ", sum,
@@ -283,7 +285,8 @@ void check_area(const Mesh& mesh, Collector& out) {
     }
 }
 
-void check_features(const Mesh& mesh, const MeshEdges& edges, Collector& out) {
+void check_features(const Mesh& mesh, std::span<const Vec2> P, const MeshEdges& edges,
+                    Collector& out) {
     auto key = [](int32_t a, int32_t b) {
         return (static_cast<uint64_t>(std::min(a, b)) << 32) |
                static_cast<uint32_t>(std::max(a, b));
@@ -295,7 +298,8 @@ void check_features(const Mesh& mesh, const MeshEdges& edges, Collector& out) {
     std::unordered_map<uint64_t, size_t> seen;
     for (size_t i = 0; i < mesh.features.size() && !out.full(); ++i) {
         auto [a, b] = mesh.features[i];
-        if (a < 0 || b < 0 || a >= mesh.num_vertices() || b >= mesh.num_vertices() || a == b) {
+        if (a < 0 || b < 0 || a >= static_cast<int>(P.size()) || b >= static_cast<int>(P.size()) ||
+            a == b) {
             out.add(str("feature ", i, ": (", a, ", ", b, ") does not name two distinct vertices"));
             continue;
         }
@@ -316,22 +320,31 @@ void check_features(const Mesh& mesh, const MeshEdges& edges, Collector& out) {
 }  // namespace
 
 ValidationReport validate(const Mesh& mesh, const ValidateOptions& options) {
+    return validate(mesh, mesh.vertices, options);
+}
+
+ValidationReport validate(const Mesh& mesh, std::span<const Vec2> P,
+                          const ValidateOptions& options) {
     Collector out(std::max<size_t>(1, options.max_problems));
-    if (!check_domain_and_vertices(mesh, out)) return out.take();
-    if (!check_face_indices(mesh, out)) return out.take();
-    const bool shapes_ok = check_face_shapes(mesh, out);
-    check_vertex_use(mesh, out);
+    if (!check_domain_and_vertices(mesh, P, out)) return out.take();
+    if (!check_face_indices(mesh, P, out)) return out.take();
+    const bool shapes_ok = check_face_shapes(mesh, P, out);
+    check_vertex_use(mesh, P, out);
     const MeshEdges edges = build_edges(mesh);
-    check_t_nodes(mesh, edges, out);
+    check_t_nodes(mesh, P, edges, out);
     check_edges(mesh, edges, out);
-    check_boundary_and_valence(mesh, edges, out);
-    if (!out.any() && shapes_ok) check_area(mesh, out);
-    check_features(mesh, edges, out);
+    check_boundary_and_valence(mesh, P, edges, out);
+    if (!out.any() && shapes_ok) check_area(mesh, P, out);
+    check_features(mesh, P, edges, out);
     return out.take();
 }
 
 void require_valid(const Mesh& mesh, const std::string& what) {
-    ValidationReport report = validate(mesh, {.max_problems = 1});
+    require_valid(mesh, mesh.vertices, what);
+}
+
+void require_valid(const Mesh& mesh, std::span<const Vec2> positions, const std::string& what) {
+    ValidationReport report = validate(mesh, positions, {.max_problems = 1});
     if (!report.ok()) throw Error(what + ": " + report.problems.front());
 }
 

@@ -2,6 +2,7 @@
 // element (vertex, face, edge, feature) and the rule it breaks; nothing is ever repaired.
 #pragma once
 
+#include <span>
 #include <string>
 #include <vector>
 
@@ -23,8 +24,13 @@ struct ValidateOptions {
 };
 
 ValidationReport validate(const Mesh& mesh, const ValidateOptions& options = {});
+// The same for mesh's topology (domain, faces, features) at other vertex positions, one per
+// vertex; mesh.vertices is not read. A moving mesh is checked without copying its topology.
+ValidationReport validate(const Mesh& mesh, std::span<const Vec2> positions,
+                          const ValidateOptions& options = {});
 
 // Throws Error("<what>: <first problem>") unless the mesh is valid.
 void require_valid(const Mesh& mesh, const std::string& what);
+void require_valid(const Mesh& mesh, std::span<const Vec2> positions, const std::string& what);
 
 }  // namespace tesswave

@@ -1,0 +1,144 @@
+// The embedded bit-plane coder on its own: full and partial decodes, plane counts, the byte cap,
+// and the dead-zone quantizer with its reconstruction rule.
+#include "core/codec/bitplane.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <random>
+
+#include "core/math/error.h"
+#include "core/math/grid_mesh.h"
+#include "core/math/hierarchy.h"
+
+namespace tesswave {
+namespace {
+
+using Planes32 = std::vector<std::vector<int32_t>>;
+
+std::vector<std::span<const int32_t>> views(const Planes32& q) { return {q.begin(), q.end()}; }
+
+// Laplacian-like magnitudes, larger in coarse bands, about half of them zero.
+Planes32 random_coefficients(const CodingLayout& layout, int channels, uint32_t seed) {
+    std::mt19937 rng(seed);
+    std::exponential_distribution<double> magnitude(0.15);
+    Planes32 q(channels, std::vector<int32_t>(layout.size, 0));
+    for (auto& plane : q) {
+        for (int32_t& v : plane) {
+            if (rng() % 2) continue;
+            const int32_t m = static_cast<int32_t>(magnitude(rng));
+            v = rng() % 2 ? m : -m;
+        }
+    }
+    q[0][0] = 300;  // one large coefficient: many planes
+    return q;
+}
+
+CodingLayout mesh_test_layout() {
+    const Hierarchy h = build_hierarchy(grid_mesh(48, 32, 3, 2), {.levels = 3});
+    return mesh_layout(h, 48.0 * 32, 0);
+}
+
+TEST(Bitplane, plane_counts_are_one_plus_the_top_bit_of_the_largest_magnitude) {
+    const CodingLayout layout = grid_layout(16, 16, 2, GridWavelet::cdf53, false);
+    Planes32 q(1, std::vector<int32_t>(layout.size, 0));
+    q[0][0] = -5;  // band 0 holds coefficient 0: 3 bits
+    const PlaneCounts planes = count_planes(layout, views(q));
+    ASSERT_EQ(planes.size(), 1u);
+    EXPECT_EQ(planes[0][0], 3);
+    for (size_t b = 1; b < planes[0].size(); ++b) EXPECT_EQ(planes[0][b], 0) << "band " << b;
+}
+
+TEST(Bitplane, a_whole_stream_decodes_every_coefficient_exactly) {
+    for (const CodingLayout& layout :
+         {grid_layout(40, 24, 3, GridWavelet::cdf97, false), mesh_test_layout()}) {
+        const Planes32 q = random_coefficients(layout, 3, 7);
+        const PlaneCounts planes = count_planes(layout, views(q));
+        const BitplaneOptions options{.shifts = std::vector<int>(layout.bands.size(), 0)};
+        const std::vector<uint8_t> stream = encode_bitplanes(layout, views(q), planes, options);
+        const DecodedPlanes d = decode_bitplanes(layout, planes, stream, options);
+        EXPECT_TRUE(d.complete);
+        EXPECT_EQ(d.value, q);
+    }
+}
+
+// Any prefix determines the high bits of every coefficient it reaches: the decoded magnitude is
+// the true one with the bits below the lowest known plane cleared, and the sign is right.
+TEST(Bitplane, every_prefix_decodes_the_high_bits_it_holds) {
+    const CodingLayout layout = mesh_test_layout();
+    const Planes32 q = random_coefficients(layout, 1, 11);
+    const PlaneCounts planes = count_planes(layout, views(q));
+    const BitplaneOptions options{.shifts = std::vector<int>(layout.bands.size(), 0)};
+    const std::vector<uint8_t> stream = encode_bitplanes(layout, views(q), planes, options);
+    size_t previous_known = 0;
+    for (size_t n = 0; n <= stream.size(); n += std::max<size_t>(1, stream.size() / 40)) {
+        const DecodedPlanes d =
+            decode_bitplanes(layout, planes, std::span(stream).first(n), options);
+        size_t known = 0;
+        for (int32_t i = 0; i < layout.size; ++i) {
+            const int k = d.known[0][i];
+            const int32_t v = d.value[0][i], truth = q[0][i];
+            if (k >= 32) {
+                EXPECT_EQ(v, 0) << "coefficient " << i << " at " << n << " bytes";
+                continue;
+            }
+            ++known;
+            const int32_t high = (std::abs(truth) >> k) << k;
+            EXPECT_EQ(std::abs(v), high) << "coefficient " << i << " at " << n << " bytes";
+            if (v != 0) {
+                EXPECT_EQ(v < 0, truth < 0) << "coefficient " << i;
+            }
+        }
+        EXPECT_GE(known, previous_known) << "a longer prefix knows less at " << n << " bytes";
+        previous_known = known;
+    }
+}
+
+TEST(Bitplane, the_byte_cap_stops_the_encoder_near_it) {
+    const CodingLayout layout = grid_layout(64, 64, 3, GridWavelet::cdf53, false);
+    const Planes32 q = random_coefficients(layout, 1, 3);
+    const PlaneCounts planes = count_planes(layout, views(q));
+    BitplaneOptions options{.shifts = std::vector<int>(layout.bands.size(), 0)};
+    const size_t whole = encode_bitplanes(layout, views(q), planes, options).size();
+    options.max_bytes = whole / 3;
+    const size_t capped = encode_bitplanes(layout, views(q), planes, options).size();
+    EXPECT_LT(capped, whole);
+    EXPECT_LE(capped, options.max_bytes + 16);
+}
+
+TEST(Bitplane, planes_that_do_not_match_the_layout_are_refused) {
+    const CodingLayout layout = grid_layout(16, 16, 2, GridWavelet::cdf53, false);
+    const PlaneCounts wrong(1, std::vector<uint8_t>(layout.bands.size() + 1, 1));
+    const BitplaneOptions options{.shifts = std::vector<int>(layout.bands.size(), 0)};
+    EXPECT_THROW(decode_bitplanes(layout, wrong, {}, options), Error);
+}
+
+TEST(Bitplane, dead_zone_quantization_and_its_reconstruction) {
+    const CodingLayout layout = grid_layout(8, 8, 1, GridWavelet::cdf53, false);
+    std::vector<float> x(layout.size, 0.0f);
+    x[0] = 7.9f;   // step 2: magnitude 3
+    x[1] = -0.9f;  // inside the dead zone: 0
+    x[2] = -4.0f;  // magnitude 2, negative
+    const std::vector<float> steps(layout.bands.size(), 2.0f);
+    std::vector<int32_t> q(layout.size);
+    quantize(layout, x, steps, q);
+    EXPECT_EQ(q[0], 3);
+    EXPECT_EQ(q[1], 0);
+    EXPECT_EQ(q[2], -2);
+    // Known down to plane 0: exact multiples of the step when asked, else 3/8 into the interval.
+    const DecodedPlanes d{
+        .value = {q}, .known = {std::vector<uint8_t>(layout.size, 0)}, .complete = true};
+    std::vector<float> exact(layout.size), mid(layout.size);
+    dequantize(layout, d, 0, steps, true, exact);
+    dequantize(layout, d, 0, steps, false, mid);
+    EXPECT_FLOAT_EQ(exact[0], 6.0f);
+    EXPECT_FLOAT_EQ(exact[2], -4.0f);
+    EXPECT_FLOAT_EQ(exact[1], 0.0f);
+    EXPECT_FLOAT_EQ(mid[0], (3 + 0.375f) * 2.0f);
+    EXPECT_FLOAT_EQ(mid[2], -(2 + 0.375f) * 2.0f);
+    EXPECT_FLOAT_EQ(mid[1], 0.0f);
+}
+
+}  // namespace
+}  // namespace tesswave
