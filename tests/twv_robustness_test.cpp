@@ -51,10 +51,12 @@ struct Decoded {
 };
 
 // Decodes what it can; an Error from the constructor (a damaged file header) gives no frames.
-Decoded decode(const std::string& path) {
+// With `bytes`, the decoder reads them from memory (named `path` in its messages).
+Decoded decode(const std::string& path, const Bytes* bytes = nullptr) {
     Decoded out;
     try {
-        VideoDecoder decoder(path);
+        VideoDecoder decoder =
+            bytes ? VideoDecoder(memory_source(*bytes), path) : VideoDecoder(path);
         Image frame;
         while (decoder.read(frame)) out.frames.push_back(frame);
         out.damage = decoder.damage();
@@ -108,6 +110,22 @@ TEST(TwvRobustness, EveryCutDecodesTheWholeFramesBeforeIt) {
     }
     fs::remove(path);
     fs::remove(cut);
+}
+
+// The decoder reads a file and bytes in memory alike, cut anywhere: same frames, same messages.
+TEST(TwvRobustness, BytesInMemoryDecodeAsTheFileDoes) {
+    const std::string path = temp_path("memory_source.twv"), cut = temp_path("memory_cut.twv");
+    const Bytes file = small_file(path);
+    for (size_t n = 0; n <= file.size(); n += 7) {
+        const Bytes prefix(file.begin(), file.begin() + static_cast<std::ptrdiff_t>(n));
+        write_bytes(cut, prefix);
+        const Decoded from_file = decode(cut), from_memory = decode(cut, &prefix);
+        ASSERT_EQ(from_memory.damage, from_file.damage) << "cut at " << n;
+        ASSERT_EQ(from_memory.frames.size(), from_file.frames.size()) << "cut at " << n;
+        for (size_t t = 0; t < from_file.frames.size(); ++t) {
+            ASSERT_EQ(from_memory.frames[t].planes, from_file.frames[t].planes) << "cut at " << n;
+        }
+    }
 }
 
 TEST(TwvRobustness, EveryFlippedByteDecodesOrStopsWithAMessage) {

@@ -19,19 +19,16 @@ bool same_domain(const TwvGroup& a, const TwvGroup& b) {
 }  // namespace
 
 VideoDecoder::VideoDecoder(const std::string& path, const TwvLimits& limits)
-    : path_(path), limits_(limits) {
-    file_.open(path, std::ios::binary);
-    if (!file_) throw Error(str(path, ": cannot open"));
-    file_.seekg(0, std::ios::end);
-    const auto size = file_.tellg();
-    if (size < 0) throw Error(str(path, ": cannot read"));
-    file_size_ = static_cast<uint64_t>(size);
+    : VideoDecoder(file_source(path), path, limits) {}
+
+VideoDecoder::VideoDecoder(std::unique_ptr<ByteSource> source, const std::string& name,
+                           const TwvLimits& limits)
+    : path_(name), limits_(limits), source_(std::move(source)) {
+    file_size_ = source_->size();
     std::vector<uint8_t> head(std::min<uint64_t>(file_size_, 64));
-    file_.seekg(0);
-    file_.read(reinterpret_cast<char*>(head.data()), static_cast<std::streamsize>(head.size()));
-    if (!file_) throw Error(str(path, ": cannot read"));
+    if (!source_->read(0, head)) throw Error(str(name, ": cannot read"));
     size_t used = 0;
-    header_ = read_twv_header(head, path, used, limits);
+    header_ = read_twv_header(head, name, used, limits);
     position_ = header_bytes_ = used;
     data_end_ = file_size_;
     read_index();
@@ -53,10 +50,8 @@ std::optional<int64_t> VideoDecoder::group_count() const {
 void VideoDecoder::read_index() {
     if (file_size_ < position_ + kTwvTrailerBytes) return;
     uint8_t t[kTwvTrailerBytes];
-    file_.seekg(static_cast<std::streamoff>(file_size_ - kTwvTrailerBytes));
-    file_.read(reinterpret_cast<char*>(t), kTwvTrailerBytes);
-    if (!file_ || !std::equal(t + 8, t + 12, kTwvTrailerMagic)) {
-        file_.clear();
+    if (!source_->read(file_size_ - kTwvTrailerBytes, t) ||
+        !std::equal(t + 8, t + 12, kTwvTrailerMagic)) {
         return;
     }
     uint64_t offset = 0;
@@ -82,13 +77,12 @@ std::optional<VideoDecoder::Chunk> VideoDecoder::read_chunk(uint64_t offset) {
         damage_ = str(path_, ": ", why, " at byte ", offset);
         return std::nullopt;
     };
-    file_.clear();
-    file_.seekg(static_cast<std::streamoff>(offset));
     ByteWriter head;  // tag and size bytes, for the CRC
     uint8_t byte = 0;
     uint64_t size = 0;
     for (int i = 0; i < 11; ++i) {
-        if (offset + head.size() >= data_end_ || !file_.read(reinterpret_cast<char*>(&byte), 1)) {
+        if (offset + head.size() >= data_end_ ||
+            !source_->read(offset + head.size(), std::span(&byte, 1))) {
             return fail("truncated chunk");
         }
         head.u8(byte);
@@ -108,9 +102,7 @@ std::optional<VideoDecoder::Chunk> VideoDecoder::read_chunk(uint64_t offset) {
     chunk.end = start + size + 4;
     chunk.payload.resize(size);
     uint8_t crc_bytes[4];
-    if (!file_.read(reinterpret_cast<char*>(chunk.payload.data()),
-                    static_cast<std::streamsize>(size)) ||
-        !file_.read(reinterpret_cast<char*>(crc_bytes), 4)) {
+    if (!source_->read(start, chunk.payload) || !source_->read(start + size, crc_bytes)) {
         return fail("truncated chunk");
     }
     const uint32_t crc = uint32_t{crc_bytes[0]} | uint32_t{crc_bytes[1]} << 8 |

@@ -6,12 +6,12 @@
 #pragma once
 
 #include <cstdint>
-#include <fstream>
 #include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
+#include "core/codec/byte_io.h"
 #include "core/math/image.h"
 #include "twv_domain.h"
 #include "twv_format.h"
@@ -29,6 +29,9 @@ class VideoDecoder {
   public:
     // Throws Error("<path>: ...") for a missing or unreadable file or a damaged file header.
     explicit VideoDecoder(const std::string& path, const TwvLimits& limits = {});
+    // The same from any byte source (a file, bytes in memory); `name` prefixes messages.
+    VideoDecoder(std::unique_ptr<ByteSource> source, const std::string& name,
+                 const TwvLimits& limits = {});
     ~VideoDecoder();
 
     const TwvHeader& header() const { return header_; }
@@ -68,7 +71,7 @@ class VideoDecoder {
 
     std::string path_;
     TwvLimits limits_;
-    std::ifstream file_;
+    std::unique_ptr<ByteSource> source_;
     uint64_t file_size_ = 0, header_bytes_ = 0, data_end_ = 0, position_ = 0;
     TwvHeader header_;
     std::optional<TwvIndex> index_;

@@ -1,8 +1,10 @@
 #include "core/codec/byte_io.h"
 
+#include <algorithm>
 #include <array>
 #include <bit>
 #include <cmath>
+#include <fstream>
 
 #include "core/math/error.h"
 #include "core/math/strings.h"
@@ -89,6 +91,55 @@ int64_t ByteReader::count(const char* field, int64_t lo, int64_t hi) {
         fail(str(field, " = ", v, " is outside [", lo, ", ", hi, "]"));
     }
     return static_cast<int64_t>(v);
+}
+
+namespace {
+
+class FileSource final : public ByteSource {
+  public:
+    explicit FileSource(const std::string& path) : file_(path, std::ios::binary) {
+        if (!file_) throw Error(str(path, ": cannot open"));
+        file_.seekg(0, std::ios::end);
+        const auto end = file_.tellg();
+        if (end < 0) throw Error(str(path, ": cannot read"));
+        size_ = static_cast<uint64_t>(end);
+    }
+    uint64_t size() const override { return size_; }
+    bool read(uint64_t offset, std::span<uint8_t> out) override {
+        if (offset > size_ || out.size() > size_ - offset) return false;
+        file_.clear();
+        file_.seekg(static_cast<std::streamoff>(offset));
+        return static_cast<bool>(file_.read(reinterpret_cast<char*>(out.data()),
+                                            static_cast<std::streamsize>(out.size())));
+    }
+
+  private:
+    std::ifstream file_;
+    uint64_t size_ = 0;
+};
+
+class MemorySource final : public ByteSource {
+  public:
+    explicit MemorySource(std::span<const uint8_t> bytes) : bytes_(bytes) {}
+    uint64_t size() const override { return bytes_.size(); }
+    bool read(uint64_t offset, std::span<uint8_t> out) override {
+        if (offset > bytes_.size() || out.size() > bytes_.size() - offset) return false;
+        std::copy_n(bytes_.begin() + static_cast<std::ptrdiff_t>(offset), out.size(), out.begin());
+        return true;
+    }
+
+  private:
+    std::span<const uint8_t> bytes_;
+};
+
+}  // namespace
+
+std::unique_ptr<ByteSource> file_source(const std::string& path) {
+    return std::make_unique<FileSource>(path);
+}
+
+std::unique_ptr<ByteSource> memory_source(std::span<const uint8_t> bytes) {
+    return std::make_unique<MemorySource>(bytes);
 }
 
 }  // namespace tesswave

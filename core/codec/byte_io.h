@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <span>
 #include <string>
 #include <vector>
@@ -53,5 +54,20 @@ class ByteReader {
     size_t pos_ = 0;
     std::string what_;
 };
+
+// Random access to a decoder's input, a file or bytes in memory, for decoders that read part of it
+// at a time (the .twv decoder seeks through its index and holds one chunk). read() is false, and
+// fills nothing, when [offset, offset + out.size()) is not all there.
+class ByteSource {
+  public:
+    virtual ~ByteSource() = default;
+    virtual uint64_t size() const = 0;
+    virtual bool read(uint64_t offset, std::span<uint8_t> out) = 0;
+};
+
+// Throws Error("<path>: cannot open") for a missing or unreadable file.
+std::unique_ptr<ByteSource> file_source(const std::string& path);
+// The bytes are not copied: they must outlive the source.
+std::unique_ptr<ByteSource> memory_source(std::span<const uint8_t> bytes);
 
 }  // namespace tesswave

@@ -4,12 +4,8 @@
 // given and with the CRCs repaired. tesswave::Error from the constructor (one line) is the only
 // acceptable failure there; later damage must stop read() with a message, and decoded frames
 // must have the header's size.
-#include <unistd.h>
-
 #include <cstdint>
 #include <cstdio>
-#include <filesystem>
-#include <fstream>
 #include <span>
 #include <string>
 #include <vector>
@@ -67,14 +63,9 @@ std::vector<uint8_t> repaired(std::span<const uint8_t> file) {
     return b;
 }
 
-void decode(const std::vector<uint8_t>& bytes, const std::string& path) {
-    {
-        std::ofstream out(path, std::ios::binary | std::ios::trunc);
-        out.write(reinterpret_cast<const char*>(bytes.data()),
-                  static_cast<std::streamsize>(bytes.size()));
-    }
+void decode(const std::vector<uint8_t>& bytes) {
     try {
-        video::VideoDecoder decoder(path, kLimits);
+        video::VideoDecoder decoder(memory_source(bytes), "fuzz.twv", kLimits);
         Image frame;
         int frames = 0;
         while (frames < 64 && decoder.read(frame)) {
@@ -95,11 +86,8 @@ void decode(const std::vector<uint8_t>& bytes, const std::string& path) {
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
-    static const std::string path = (std::filesystem::temp_directory_path() /
-                                     ("twv_fuzz_" + std::to_string(::getpid()) + ".twv"))
-                                        .string();
     const std::span<const uint8_t> file(data, size);
-    decode(std::vector<uint8_t>(file.begin(), file.end()), path);
-    decode(repaired(file), path);
+    decode(std::vector<uint8_t>(file.begin(), file.end()));
+    decode(repaired(file));
     return 0;
 }
