@@ -75,6 +75,38 @@ samples::SampleClipOptions small_pan() {
     return {.width = 64, .height = 48, .frames = 6, .pan = {1.25, 0.5}, .object = true};
 }
 
+// Rate and quality pinned from both sides, as the still codec's are: any change of the coder that
+// moves them is seen here (update the pins, with the reason, in the same commit).
+TEST(VideoCodec, PinnedRatesAndQualities) {
+    const std::vector<Image> frames = clip(small_pan());
+    const std::string path = temp_path("pinned.twv");
+    struct Pin {
+        TwiTransform transform;
+        double kbps, quality;
+        int64_t bytes;
+        double psnr;
+    };
+    // 6 frames of 64x48 at 25 fps: 100 kbit/s is 3000 bytes, plus the header, groups and index.
+    const Pin pins[] = {
+        {TwiTransform::mesh, 100, 0, 3472, 35.034},   {TwiTransform::mesh, 300, 0, 10330, 40.181},
+        {TwiTransform::mesh, 0, 28, 953, 27.981},     {TwiTransform::mesh, 0, 34, 2505, 33.938},
+        {TwiTransform::grid53, 100, 0, 3472, 34.418}, {TwiTransform::grid53, 0, 34, 2839, 34.020}};
+    for (const Pin& pin : pins) {
+        const Coded coded = encode(frames, path,
+                                   {.transform = pin.transform,
+                                    .group = 4,
+                                    .kbps = pin.kbps,
+                                    .quality = pin.quality > 0 ? pin.quality : 30});
+        SCOPED_TRACE(::testing::Message()
+                     << "transform " << static_cast<int>(pin.transform) << ", " << pin.kbps
+                     << " kbps, " << pin.quality << " dB: " << coded.bytes << " bytes, "
+                     << mean_psnr(coded) << " dB");
+        EXPECT_NEAR(static_cast<double>(coded.bytes), static_cast<double>(pin.bytes),
+                    0.02 * static_cast<double>(pin.bytes));
+        EXPECT_NEAR(mean_psnr(coded), pin.psnr, 0.05);
+    }
+}
+
 TEST(VideoCodec, DecoderOutputEqualsEncoderReconstructionInEveryMode) {
     const std::vector<Image> frames = clip(small_pan());
     const std::string path = temp_path("exact.twv");
