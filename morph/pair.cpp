@@ -149,6 +149,7 @@ PairMeshes triangles_pair(const Correspondences& c, const std::vector<std::array
 
 PairMeshes fitted_pair(const Mesh& mesh_a, const Correspondences& c, double wb, double hb) {
     const MeshFitResult fit = fit_mesh(mesh_a, c.a, c.b, wb, hb);
+    if (!fit.ok()) throw Error(fit.failure);  // no pair without a mesh on B
     PairMeshes pair{mesh_a, with_vertices(mesh_a, fit.vertices, wb, hb),
                     str("fitted ", mesh_a.num_faces(), "-face mesh, residual rms ", fit.rms,
                         " px, ", fit.outliers, " outliers")};

@@ -43,11 +43,9 @@ MotionStep MeshMotion::fit(std::span<const Vec2> previous) const {
     o.smoothness_weight = options_.smoothness_weight;
     o.previous = previous;
     o.temporal_weight = options_.temporal_weight;
-    MeshFitResult r;
-    try {
-        r = fit_mesh(rest_, a, b, rest_.width, rest_.height, o);
-    } catch (const Error& e) {
-        step.failure = e.what();
+    const MeshFitResult r = fit_mesh(rest_, a, b, rest_.width, rest_.height, o);
+    if (!r.ok()) {
+        step.failure = r.failure;
         return step;
     }
     step.rms = r.rms;

@@ -508,10 +508,12 @@ MeshFitResult finish(const FitProblem& fit, const std::vector<PinnedPoint>& pins
     Mesh b = fit.mesh;
     b.width = fit.frame.width, b.height = fit.frame.height;
     for (int v = 0; v < b.num_vertices(); ++v) b.vertices[v] = {fit.x[2 * v], fit.x[2 * v + 1]};
-    const ValidationReport report = validate(b, {.max_problems = 1});
-    if (!report.ok()) throw Error("no valid mesh fits: " + report.problems.front());
-
     MeshFitResult result;
+    const ValidationReport report = validate(b, {.max_problems = 1});
+    if (!report.ok()) {
+        result.failure = "no valid mesh fits: " + report.problems.front();
+        return result;
+    }
     result.iterations = fit.summary.num_successful_steps + fit.summary.num_unsuccessful_steps;
     const double limit = fit.options.outlier_factor * fit.options.robust_scale;
     double sum2 = 0;
@@ -525,8 +527,9 @@ MeshFitResult finish(const FitProblem& fit, const std::vector<PinnedPoint>& pins
         }
     }
     if (result.inliers < 3) {
-        throw Error(str("no valid mesh fits: only ", result.inliers, " of ", pins.size(),
-                        " correspondences within ", limit, " px of the fitted mesh"));
+        result.failure = str("no valid mesh fits: only ", result.inliers, " of ", pins.size(),
+                             " correspondences within ", limit, " px of the fitted mesh");
+        return result;
     }
     result.rms = std::sqrt(sum2 / result.inliers);
     result.vertices = std::move(b.vertices);

@@ -33,6 +33,7 @@
 #include <functional>
 #include <optional>
 #include <span>
+#include <string>
 #include <vector>
 
 #include "core/math/geometry.h"
@@ -82,6 +83,10 @@ struct MeshFitOptions {
 };
 
 struct MeshFitResult {
+    // Non-empty when no valid mesh fits ("no valid mesh fits: ..." with the first broken rule or
+    // too few inliers): an expected outcome, not an error; vertices is then empty.
+    std::string failure;
+    bool ok() const { return failure.empty(); }
     std::vector<Vec2> vertices;     // on B, a valid mesh with mesh A's faces on [0,W_B]x[0,H_B]
     std::vector<double> residuals;  // per correspondence: |P_k x - b_k| after the fit, px
     double rms = 0, max = 0;        // over the inliers, px
@@ -90,8 +95,8 @@ struct MeshFitResult {
 };
 
 // Throws Error for bad input (an invalid mesh A, a point of A outside A's domain, non-finite
-// points, mismatched counts, fewer than 3 matches, bad options), and "no valid mesh fits: ..."
-// with the first broken rule when the result is not a valid mesh or keeps fewer than 3 inliers.
+// points, mismatched counts, fewer than 3 matches, bad options). When the fit is not a valid
+// mesh or keeps fewer than 3 inliers, the result says so in `failure`.
 MeshFitResult fit_mesh(const Mesh& mesh_a, std::span<const Vec2> points_a,
                        std::span<const Vec2> points_b, double width_b, double height_b,
                        const MeshFitOptions& options = {});
