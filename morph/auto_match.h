@@ -16,8 +16,8 @@
 #include <vector>
 
 #include "core/math/geometry.h"
-#include "core/math/progress.h"
 #include "core/math/image.h"
+#include "core/math/progress.h"
 
 namespace tesswave::morph {
 
