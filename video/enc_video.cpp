@@ -17,8 +17,6 @@
 namespace tesswave::video {
 namespace {
 
-using IntPlanes = std::vector<std::vector<int32_t>>;
-
 void fps_fraction(double fps, TwvHeader& h) {
     if (!(fps > 0) || fps > 1000) throw Error(str("frame rate ", fps, " is out of range"));
     const int64_t den = std::abs(fps - std::round(fps)) < 1e-9 ? 1 : 1001;
