@@ -91,6 +91,15 @@ void run_encode(const EncodeArgs& a) {
         .intra_weight = a.intra_weight};
     if (a.quality > 0) o.quality = a.quality;
     if (o.kbps > 0) o.quality = 0;  // the rate decides
+    const int64_t total = a.max_frames > 0 ? a.max_frames : source.frame_count_estimate();
+    ProgressBar bar;
+    int64_t n = 0, groups = 0;
+    if (total > 0) {
+        o.progress = [&bar, &n, total](double done, const char* stage) {
+            bar.update((static_cast<double>(n) + done) / static_cast<double>(total),
+                       str("frame ", n + 1, ": ", stage).c_str());
+        };
+    }
     std::unique_ptr<video::VideoEncoder> encoder;
     try {
         encoder = std::make_unique<video::VideoEncoder>(a.output, source.width(), source.height(),
@@ -99,12 +108,9 @@ void run_encode(const EncodeArgs& a) {
         throw Error(str(a.input, ": ", e.what()));
     }
     if (!a.debug_dir.empty()) prepare_folder(a.debug_dir, a.overwrite);
-    const int64_t total = a.max_frames > 0 ? a.max_frames : source.frame_count_estimate();
-    ProgressBar bar;
     nlohmann::json frames = nlohmann::json::array();
     Image frame;
     double psnr_sum = 0;
-    int64_t n = 0, groups = 0;
     while ((a.max_frames <= 0 || n < a.max_frames) && source.read(frame)) {
         video::EncodedFrame f;
         try {
@@ -134,7 +140,6 @@ void run_encode(const EncodeArgs& a) {
                           {"new_group", f.new_group},
                           {"quality_target", f.quality_target}});
         ++n;
-        if (total > 0) bar.update(static_cast<double>(n) / total, str("frame ", n).c_str());
     }
     const int64_t bytes = encoder->finish();
     const double seconds = seconds_since(start);

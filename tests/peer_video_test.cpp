@@ -208,9 +208,8 @@ TEST(PeerVideo, bad_options_and_frames_throw) {
     const auto ignore = [](int, const Image&) {};
     EXPECT_THROW(run({.codec = PeerCodec::snow, .kbps = 200}), Error);  // quality only
     EXPECT_THROW(run({.codec = PeerCodec::snow, .quality = 0}), Error);
-    EXPECT_THROW(run({.codec = PeerCodec::vc2, .quality = 10}), Error);                // rate only
-    EXPECT_THROW(run({.codec = PeerCodec::x264}), Error);                              // neither
-    EXPECT_THROW(run({.codec = PeerCodec::x264, .kbps = 100, .quality = 20}), Error);  // both
+    EXPECT_THROW(run({.codec = PeerCodec::vc2, .quality = 10}), Error);   // rate only
+    EXPECT_THROW(run({.codec = PeerCodec::x264, .quality = -1}), Error);  // neither
     EXPECT_THROW(run({.codec = PeerCodec::x264, .quality = 52}), Error);
     EXPECT_THROW(run({.codec = PeerCodec::x264, .quality = 20, .fps = 0}), Error);
     EXPECT_THROW(run({.codec = PeerCodec::vc2, .kbps = 20}), Error);           // 100 bytes a frame
@@ -227,6 +226,16 @@ TEST(PeerVideo, bad_options_and_frames_throw) {
     } catch (const Error& e) {
         EXPECT_NE(std::string(e.what()).find("frame 1 is 64x64"), std::string::npos) << e.what();
     }
+}
+
+// Default options are x264 at its own CRF 23; a rate overrides the quality, as in our encoder.
+TEST(PeerVideo, default_options_are_valid_and_a_rate_overrides_quality) {
+    const PeerRun by_default = run({});
+    EXPECT_EQ(by_default.decoded.size(), static_cast<size_t>(kFrames));
+    const PeerRun crf23 = run({.codec = PeerCodec::x264, .quality = 23});
+    EXPECT_EQ(by_default.result.bytes, crf23.result.bytes);
+    const PeerRun rate = run({.codec = PeerCodec::x264, .kbps = 50, .quality = 0});
+    EXPECT_EQ(rate.result.bytes, run({.codec = PeerCodec::x264, .kbps = 50}).result.bytes);
 }
 
 TEST(PeerVideo, codec_names_round_trip) {

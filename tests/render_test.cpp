@@ -4,6 +4,7 @@
 
 #include <cmath>
 
+#include "core/math/grid_mesh.h"
 #include "core/math/sampling.h"
 #include "core/math/voronoi.h"
 #include "samples/sample_meshes.h"
@@ -98,6 +99,29 @@ TEST(Sampling, density_picks_the_papers_level) {
     EXPECT_EQ(level_for_density(samples::paper_t0(249, 251), 249 * 251, 3.5), 7);
     EXPECT_EQ(level_for_density(samples::paper_t0(249, 251), 249 * 251, 0.9), 6);
     EXPECT_THROW(level_for_density(samples::paper_t0(249, 251), 100, 0.0), Error);
+}
+
+// One rule for J: the grid the codecs build has the J that level_for_density gives for it.
+TEST(Sampling, default_grid_agrees_with_level_for_density) {
+    for (const auto& [w, h] : {std::pair{64, 48},
+                               {176, 144},
+                               {249, 251},
+                               {640, 360},
+                               {768, 512},
+                               {1280, 720},
+                               {37, 300}}) {
+        for (const double density : {0.25, 0.5, 1.0, 2.0, 3.5, 8.0}) {
+            const DefaultGrid g = default_grid(w, h, density);
+            const Mesh mesh = grid_mesh(w, h, g.cols, g.rows);
+            EXPECT_EQ(level_for_density(mesh, w * h, density), g.levels)
+                << w << "x" << h << " at " << density;
+            const double samples =
+                (g.cols * std::ldexp(1.0, g.levels) + 1) * (g.rows * std::ldexp(1.0, g.levels) + 1);
+            EXPECT_NEAR(std::log(samples / (density * w * h)), 0.0, 0.7) << w << "x" << h;
+        }
+    }
+    EXPECT_EQ(default_grid(640, 360, 1.0, 3).levels, 3);
+    EXPECT_THROW(default_grid(64, 48, 0.0), Error);
 }
 
 // A coarse mesh over a fine checkerboard: without the prefilter the samples alias to the

@@ -10,6 +10,7 @@
 #include "core/math/colour.h"
 #include "core/math/error.h"
 #include "core/math/metrics.h"
+#include "core/math/sampling.h"
 #include "core/math/strings.h"
 #include "core/math/validate.h"
 #include "mesh_motion.h"
@@ -38,15 +39,15 @@ TwvGroup choose_group(const TwvHeader& h, const VideoEncodeOptions& o) {
     if (!(o.density > 0) || o.density > 16) {
         throw Error(str("density ", o.density, " must lie in (0, 16] samples per pixel"));
     }
-    const int J =
-        o.levels > 0 ? std::min(o.levels, 12) : default_mesh_levels(h.width, h.height, o.density);
+    const DefaultGrid grid =
+        default_grid(h.width, h.height, o.density, o.levels > 0 ? std::min(o.levels, 12) : 0);
+    const int J = grid.levels;
     if (o.motion_level < 0 || o.motion_level > J) {
         throw Error(str("motion level ", o.motion_level, " must lie in [0, ", J, "]"));
     }
-    const double cell = std::ldexp(1.0, J) / std::sqrt(o.density);
     const int k = o.motion_level;
-    g.grid_cols = std::max(1, static_cast<int>(std::lround(h.width / cell))) << k;
-    g.grid_rows = std::max(1, static_cast<int>(std::lround(h.height / cell))) << k;
+    g.grid_cols = grid.cols << k;
+    g.grid_rows = grid.rows << k;
     g.grid_cols = std::min(g.grid_cols, h.width);
     g.grid_rows = std::min(g.grid_rows, h.height);
     g.levels = J - k;
@@ -223,7 +224,11 @@ EncodedFrame VideoEncoder::encode(const Image& frame) {
     }
     EncodedFrame info;
     info.number = frames_;
-    if (motion_) motion_->track(frame);
+    const Progress& progress = options_.progress;
+    if (motion_) {
+        report(progress, 0.0, "tracking");
+        motion_->track(frame);
+    }
     const Mesh* rest = mesh();
     bool intra = frames_ == 0 || in_group_ >= options_.group;
     std::vector<Vec2> v;
@@ -240,6 +245,7 @@ EncodedFrame VideoEncoder::encode(const Image& frame) {
             }
             if (validate(ahead, {.max_problems = 1}).ok()) expected = std::move(ahead.vertices);
         }
+        report(progress, 0.2, "fitting the mesh");
         const MotionStep step = motion_->fit(expected);
         info.tracks = step.tracks;
         info.fit_rms = step.rms;
@@ -276,7 +282,10 @@ EncodedFrame VideoEncoder::encode(const Image& frame) {
     }
     previous_ = std::move(vertices_);
     vertices_ = std::move(v);
-    if (intra && options_.quality > 0) base_step_ = calibrate_step(frame);
+    if (intra && options_.quality > 0) {
+        report(progress, 0.3, "calibrating");
+        base_step_ = calibrate_step(frame);
+    }
     f.base_step = options_.kbps > 0 ? 1.0f / 1024 : base_step_;
     int64_t budget = -1;
     if (options_.kbps > 0) {
@@ -289,6 +298,7 @@ EncodedFrame VideoEncoder::encode(const Image& frame) {
                             " bytes for the first frame; it needs at least ", floor_bytes));
         }
     }
+    report(progress, 0.5, "coding");
     const std::vector<uint8_t> chunk = code_frame(frame, f, budget);
     index_.frame_offsets.push_back(written_);
     write(chunk);

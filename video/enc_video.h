@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "core/math/image.h"
+#include "core/math/progress.h"
 #include "enc_motion.h"
 #include "twv_domain.h"
 #include "twv_format.h"
@@ -41,6 +42,9 @@ struct VideoEncodeOptions {
     double quality = 30;
     double intra_weight = 4;
     MeshMotionOptions mesh_motion = {};
+    // Within each encode() call: the fraction of that frame done and its stage (tracking, fitting
+    // the mesh, calibrating, coding). The caller maps frames into its bar with progress_range.
+    Progress progress = {};
 };
 
 struct EncodedFrame {

@@ -31,7 +31,7 @@ void progress(const StillOptions& o, double done, const char* stage) {
 void choose_mesh(const Image& image, const StillOptions& o, TwiHeader& h) {
     const int W = image.width, H = image.height;
     if (o.aligned) {
-        h.levels = o.levels > 0 ? o.levels : default_mesh_levels(W, H, 1.0);
+        h.levels = o.levels > 0 ? o.levels : default_grid(W, H, 1.0).levels;
         h.placement = MeshPlacement::centres;
         h.grid_cols = aligned_cells(W, h.levels);
         h.grid_rows = aligned_cells(H, h.levels);
@@ -42,7 +42,6 @@ void choose_mesh(const Image& image, const StillOptions& o, TwiHeader& h) {
     if (!(o.density > 0) || !std::isfinite(o.density)) {
         throw Error(str("density ", o.density, " must be a positive number of samples per pixel"));
     }
-    const double root = std::sqrt(o.density);
     if (o.mesh.num_vertices() > 0) {
         if (o.mesh.width != W || o.mesh.height != H) {
             throw Error(str("mesh domain ", o.mesh.width, "x", o.mesh.height,
@@ -54,10 +53,10 @@ void choose_mesh(const Image& image, const StillOptions& o, TwiHeader& h) {
         h.levels = o.levels > 0 ? o.levels : level_for_density(h.mesh, W * H, o.density);
         return;
     }
-    h.levels = o.levels > 0 ? o.levels : default_mesh_levels(W, H, o.density);
-    const double cell = std::ldexp(1.0, h.levels) / root;  // pixels per T0 cell side
-    h.grid_cols = std::max(1, static_cast<int>(std::lround(W / cell)));
-    h.grid_rows = std::max(1, static_cast<int>(std::lround(H / cell)));
+    const DefaultGrid grid = default_grid(W, H, o.density, o.levels);
+    h.levels = grid.levels;
+    h.grid_cols = grid.cols;
+    h.grid_rows = grid.rows;
     h.mesh = grid_mesh(W, H, h.grid_cols, h.grid_rows);
 }
 
@@ -143,11 +142,6 @@ double image_psnr(const Image& a, const Image& b, int bit_depth) {
 }  // namespace
 
 double step_for_psnr(double psnr) { return std::sqrt(12.0 * std::pow(10.0, -psnr / 10)); }
-
-int default_mesh_levels(int width, int height, double density) {
-    const double samples = std::min(width, height) * std::sqrt(density);
-    return std::clamp(static_cast<int>(std::floor(std::log2(samples))) - 3, 1, 7);
-}
 
 StillResult compress_image(const Image& image, const StillOptions& o) {
     if (o.max_bytes < 0) throw Error(str("byte budget ", o.max_bytes, " is negative"));

@@ -11,9 +11,9 @@
 #include <vector>
 
 #include "core/codec/twi_format.h"
-#include "core/math/progress.h"
 #include "core/math/image.h"
 #include "core/math/mesh.h"
+#include "core/math/progress.h"
 
 namespace tesswave {
 
@@ -34,10 +34,10 @@ struct StillOptions {
     // so that sampling and rendering are exact.
     Mesh mesh = {};
     bool aligned = false;
-    int levels = 0;        // J (mesh) or decomposition levels (grid); 0: chosen
-    double density = 1.0;  // samples per pixel when J is chosen
-    int norm_probes = 1;   // impulses per band for the band norms
-    bool measure = true;   // decode the result once and report its PSNR
+    int levels = 0;          // J (mesh) or decomposition levels (grid); 0: chosen
+    double density = 1.0;    // samples per pixel when J is chosen
+    int norm_probes = 1;     // impulses per band for the band norms
+    bool measure = true;     // decode the result once and report its PSNR
     Progress progress = {};  // optional
 };
 
@@ -51,10 +51,6 @@ struct StillResult {
 // The quantizer step (StillOptions::base_step) whose quantization error alone is about `psnr` dB:
 // sqrt(12 * 10^(-psnr / 10)) of the full range (uniform error over a step: step^2 / 12).
 double step_for_psnr(double psnr);
-
-// J of a grid mesh over a width x height image at `density` samples a pixel: the shorter side
-// gets 8 to 16 T0 cells (J from 1 to 7). The still and video codecs' default.
-int default_mesh_levels(int width, int height, double density);
 
 // Throws Error for images or options the codec cannot take (with the reason).
 StillResult compress_image(const Image& image, const StillOptions& options);

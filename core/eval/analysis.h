@@ -9,8 +9,8 @@
 #include <vector>
 
 #include "core/math/image.h"
-#include "core/math/progress.h"
 #include "core/math/mesh.h"
+#include "core/math/progress.h"
 #include "core/math/selection.h"
 
 namespace tesswave {
@@ -20,7 +20,7 @@ struct AnalysisOptions {
     std::vector<double> keep = {10, 1, 0.1};            // percentages of the detail coefficients
     SelectionRule picture_rule = SelectionRule::paper;  // the rule of the reconstructions kept
     int grid_levels = 5;                                // fixed-grid decomposition levels
-    Progress progress = {};  // optional
+    Progress progress = {};                             // optional
 };
 
 struct AnalysisRow {

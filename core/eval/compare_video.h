@@ -9,8 +9,8 @@
 #include <vector>
 
 #include "core/io/frame_source.h"
-#include "core/math/progress.h"
 #include "core/math/image.h"
+#include "core/math/progress.h"
 
 namespace tesswave::eval {
 

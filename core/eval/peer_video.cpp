@@ -27,21 +27,21 @@ void check_options(const PeerVideoOptions& o, const std::string& where) {
         throw Error(str(where, ": kbps ", o.kbps, " not in [0, 10^7] or quality ", o.quality,
                         " not a number"));
     }
-    if ((o.kbps > 0) == (o.quality >= 0)) {
-        throw Error(where + ": set exactly one of kbps (> 0) and quality (>= 0)");
+    if (o.kbps == 0 && o.quality < 0) {
+        throw Error(str(where, ": quality ", o.quality, " is negative and no kbps is given"));
     }
     if (o.codec == PeerCodec::snow && o.kbps > 0) {
         throw Error(where +
                     ": FFmpeg's snow rate control ignores the target on easy clips (one "
                     "stream for 10 to 800 kbps), give quality (qscale) and sweep it");
     }
-    if (o.codec == PeerCodec::snow && !(o.quality > 0 && o.quality <= 255)) {
+    if (o.codec == PeerCodec::snow && !(o.quality > 0 && o.quality <= 255)) {  // kbps is 0 here
         throw Error(str(where, ": snow's qscale ", o.quality, " is not in (0, 255]"));
     }
-    if (o.codec == PeerCodec::vc2 && o.quality >= 0) {
+    if (o.codec == PeerCodec::vc2 && o.kbps == 0) {
         throw Error(where + ": vc2 has no constant-quality mode, give kbps");
     }
-    if (o.codec == PeerCodec::x264 && o.quality > 51) {
+    if (o.codec == PeerCodec::x264 && o.kbps == 0 && o.quality > 51) {
         throw Error(str(where, ": x264's CRF ", o.quality, " is over 51"));
     }
     if (!(o.fps > 0 && o.fps <= 1000)) {

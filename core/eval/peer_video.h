@@ -46,12 +46,14 @@ PeerCodec peer_codec_from_name(const std::string& name);
 
 struct PeerVideoOptions {
     PeerCodec codec = PeerCodec::x264;
-    double kbps = 0;      // target bit rate in kbit/s (1000 bits), or 0 to use `quality`
-    double quality = -1;  // snow: qscale, x264: CRF; < 0: unset. Exactly one of the two is set.
-    double fps = 25;      // 0 < fps <= 1000; with kbps, sets the bits a frame
-    int gop = 0;          // frames from one key frame to the next; 0: the codec's default
-                          // (snow 12, x264 250); vc2 ignores it (intra only)
-    int threads = 1;      // encoder threads; 0: automatic (x264's output then depends on the CPU)
+    double kbps = 0;  // target bit rate in kbit/s (1000 bits); > 0 overrides `quality`
+    // snow: qscale in (0, 255], x264: CRF in [0, 51]; used when kbps is 0. The default is x264's
+    // own; vc2 has no quality mode and needs kbps.
+    double quality = 23;
+    double fps = 25;  // 0 < fps <= 1000; with kbps, sets the bits a frame
+    int gop = 0;      // frames from one key frame to the next; 0: the codec's default
+                      // (snow 12, x264 250); vc2 ignores it (intra only)
+    int threads = 1;  // encoder threads; 0: automatic (x264's output then depends on the CPU)
 };
 
 struct PeerVideoResult {

@@ -8,6 +8,8 @@
 #include <string>
 #include <vector>
 
+#include "core/fit/fit_start.h"
+#include "core/fit/fit_terms.h"
 #include "core/math/error.h"
 #include "core/math/parametrization.h"
 #include "core/math/strings.h"
@@ -16,8 +18,12 @@
 namespace tesswave {
 namespace {
 
-// beta's weight: a corner at half its margin costs as much as a match 10 px off.
-constexpr double kBarrierWeight = 10.0;
+using fit_detail::Frame, fit_detail::make_frame, fit_detail::initial_vertices,
+    fit_detail::initial_transforms;
+using fit_detail::kLeft, fit_detail::kRight, fit_detail::kTop, fit_detail::kBottom;
+using fit_detail::LinearCost, fit_detail::EdgeRigidity, fit_detail::CornerBarrier,
+    fit_detail::EdgeBarrier;
+
 constexpr int kMaxIterations = 100'000;
 
 bool finite(Vec2 p) { return std::isfinite(p.x) && std::isfinite(p.y); }
@@ -58,90 +64,6 @@ void pin_weights(const Mesh& mesh, const PinnedPoint& pin, std::vector<double>& 
     w[(s + 1) % n] += 0.5 * u * (1 - v);
     w[(s + n - 1) % n] += 0.5 * (1 - u) * v;
 }
-
-// A residual linear in the vertex blocks, sum_k w_k x_k - target: data, smoothness and temporal
-// terms. Its Jacobian is w_k I per block, so it needs no automatic differentiation.
-class LinearCost : public ceres::CostFunction {
-  public:
-    LinearCost(std::vector<double> weights, Vec2 target)
-        : weights_(std::move(weights)), target_(target) {
-        set_num_residuals(2);
-        mutable_parameter_block_sizes()->assign(weights_.size(), 2);
-    }
-    bool Evaluate(double const* const* x, double* residual, double** jacobians) const override {
-        residual[0] = -target_.x;
-        residual[1] = -target_.y;
-        for (size_t k = 0; k < weights_.size(); ++k) {
-            residual[0] += weights_[k] * x[k][0];
-            residual[1] += weights_[k] * x[k][1];
-            if (jacobians && jacobians[k]) {
-                double* J = jacobians[k];
-                J[0] = J[3] = weights_[k];
-                J[1] = J[2] = 0.0;
-            }
-        }
-        return true;
-    }
-
-  private:
-    std::vector<double> weights_;
-    Vec2 target_;
-};
-
-// Edge (i, j) of a face against the face's transform of the same edge in r: ARAP's S_f is the
-// rotation by s[0], ASAP's the rotation and scale [s0 -s1; s1 s0].
-template <Rigidity kind>
-struct EdgeRigidity {
-    Vec2 edge;  // r_j - r_i
-    double weight;
-    template <class T>
-    bool operator()(const T* xi, const T* xj, const T* s, T* residual) const {
-        using std::cos, std::sin;
-        T a, b;
-        if constexpr (kind == Rigidity::as_rigid) {
-            a = cos(s[0]), b = sin(s[0]);
-        } else {
-            a = s[0], b = s[1];
-        }
-        residual[0] = weight * (xj[0] - xi[0] - (a * edge.x - b * edge.y));
-        residual[1] = weight * (xj[1] - xi[1] - (b * edge.x + a * edge.y));
-        return true;
-    }
-};
-
-// beta(sin theta) at one corner; a reflex or straight corner cannot be evaluated, which makes
-// Ceres reject the step that produced it.
-struct CornerBarrier {
-    double margin;
-    template <class T>
-    bool operator()(const T* prev, const T* here, const T* next, T* residual) const {
-        const T ax = here[0] - prev[0], ay = here[1] - prev[1];
-        const T bx = next[0] - here[0], by = next[1] - here[1];
-        using std::sqrt;
-        const T c = ax * by - ay * bx;
-        if (!(c > 0.0)) return false;
-        const T sine = c / sqrt((ax * ax + ay * ay) * (bx * bx + by * by));
-        residual[0] = sine < margin ? kBarrierWeight * (margin - sine) / sine : T(0.0);
-        return true;
-    }
-};
-
-// beta(|e| / |e_r|) on one edge, so that an edge cannot shrink to a point (which keeps every
-// corner's sine and so escapes CornerBarrier).
-struct EdgeBarrier {
-    double length;  // |e_r|
-    double margin;
-    template <class T>
-    bool operator()(const T* p, const T* q, T* residual) const {
-        using std::sqrt;
-        const T dx = q[0] - p[0], dy = q[1] - p[1];
-        const T squared = dx * dx + dy * dy;
-        if (!(squared > 0.0)) return false;
-        const T ratio = sqrt(squared) / length;
-        residual[0] = ratio < margin ? kBarrierWeight * (margin - ratio) / ratio : T(0.0);
-        return true;
-    }
-};
 
 class ProgressCallback : public ceres::IterationCallback {
   public:
@@ -204,128 +126,6 @@ void check_inputs(const Mesh& mesh_a, std::span<const Vec2> points_a,
     if (!std::all_of(o.previous.begin(), o.previous.end(), finite)) {
         throw Error("mesh fit: a previous vertex has a non-finite coordinate");
     }
-}
-
-enum Side : int { kLeft = 1, kRight = 2, kTop = 4, kBottom = 8 };
-
-// The frame of the fit: each vertex's border sides on A and its position r scaled to B.
-struct Frame {
-    double width = 0, height = 0;  // B's domain
-    double sx = 1, sy = 1;         // A -> B scale
-    std::vector<int> sides;
-    std::vector<Vec2> reference;
-
-    Vec2 scale(Vec2 a) const { return {a.x * sx, a.y * sy}; }
-    Vec2 snap(int v, Vec2 p) const {  // onto vertex v's sides, exactly
-        p = {std::clamp(p.x, 0.0, width), std::clamp(p.y, 0.0, height)};
-        if (sides[v] & kLeft) p.x = 0;
-        if (sides[v] & kRight) p.x = width;
-        if (sides[v] & kTop) p.y = 0;
-        if (sides[v] & kBottom) p.y = height;
-        return p;
-    }
-};
-
-Frame make_frame(const Mesh& a, double width_b, double height_b) {
-    Frame frame{width_b, height_b, width_b / a.width, height_b / a.height, {}, {}};
-    for (int v = 0; v < a.num_vertices(); ++v) {
-        const Vec2 p = a.vertices[v];
-        frame.sides.push_back((p.x == 0 ? kLeft : 0) | (p.x == a.width ? kRight : 0) |
-                              (p.y == 0 ? kTop : 0) | (p.y == a.height ? kBottom : 0));
-        frame.reference.push_back(frame.snap(v, frame.scale(p)));
-    }
-    return frame;
-}
-
-struct Affine {
-    double m[2][2] = {{1, 0}, {0, 1}};
-    Vec2 t;
-    Vec2 operator()(Vec2 p) const {
-        return {m[0][0] * p.x + m[0][1] * p.y + t.x, m[1][0] * p.x + m[1][1] * p.y + t.y};
-    }
-};
-
-// b ~ M s + t by iteratively reweighted least squares with Cauchy weights; nullopt when the
-// points are (nearly) collinear.
-std::optional<Affine> robust_affine(std::span<const Vec2> s, std::span<const Vec2> b, double c) {
-    std::vector<double> w(s.size(), 1.0);
-    Affine f;
-    for (int round = 0; round < 10; ++round) {
-        double sw = 0;
-        Vec2 ms{}, mb{};
-        for (size_t k = 0; k < s.size(); ++k)
-            sw += w[k], ms = ms + w[k] * s[k], mb = mb + w[k] * b[k];
-        ms = (1 / sw) * ms, mb = (1 / sw) * mb;
-        double C[2][2] = {}, D[2][2] = {};
-        for (size_t k = 0; k < s.size(); ++k) {
-            const Vec2 ds = s[k] - ms, db = b[k] - mb;
-            C[0][0] += w[k] * ds.x * ds.x, C[0][1] += w[k] * ds.x * ds.y;
-            C[1][1] += w[k] * ds.y * ds.y;
-            D[0][0] += w[k] * db.x * ds.x, D[0][1] += w[k] * db.x * ds.y;
-            D[1][0] += w[k] * db.y * ds.x, D[1][1] += w[k] * db.y * ds.y;
-        }
-        C[1][0] = C[0][1];
-        const double det = C[0][0] * C[1][1] - C[0][1] * C[1][0];
-        const double trace = C[0][0] + C[1][1];
-        if (!(det > 1e-9 * trace * trace)) return std::nullopt;
-        const double inv[2][2] = {{C[1][1] / det, -C[0][1] / det}, {-C[1][0] / det, C[0][0] / det}};
-        for (int i = 0; i < 2; ++i)
-            for (int j = 0; j < 2; ++j) f.m[i][j] = D[i][0] * inv[0][j] + D[i][1] * inv[1][j];
-        f.t = {};
-        f.t = mb - f(ms);  // the weighted means correspond
-        for (size_t k = 0; k < s.size(); ++k) {
-            const Vec2 r = f(s[k]) - b[k];
-            w[k] = 1 / (1 + dot(r, r) / (c * c));
-        }
-    }
-    return f;
-}
-
-// The start: the previous frame's vertices if given, else the robust affine fit applied to r,
-// each snapped to the border and taken if it is a valid mesh; r itself otherwise (always valid:
-// a scaled valid mesh).
-std::vector<Vec2> initial_vertices(const Mesh& a, const Frame& frame,
-                                   std::span<const Vec2> points_a, std::span<const Vec2> points_b,
-                                   const MeshFitOptions& options) {
-    Mesh candidate = a;
-    candidate.width = frame.width, candidate.height = frame.height;
-    auto valid_start = [&](auto&& position) {
-        for (int v = 0; v < a.num_vertices(); ++v) {
-            candidate.vertices[v] = frame.snap(v, position(v));
-        }
-        return validate(candidate, {.max_problems = 1}).ok();
-    };
-    if (!options.previous.empty() && valid_start([&](int v) { return options.previous[v]; })) {
-        return candidate.vertices;
-    }
-    std::vector<Vec2> s(points_a.size());
-    for (size_t k = 0; k < s.size(); ++k) s[k] = frame.scale(points_a[k]);
-    const auto f = robust_affine(s, points_b, options.robust_scale);
-    if (f && valid_start([&](int v) { return (*f)(frame.reference[v]); })) {
-        return candidate.vertices;
-    }
-    return frame.reference;
-}
-
-// The best S_f from r to x for every face (closed form), the start of the per-face parameters.
-std::vector<double> initial_transforms(const Mesh& a, const Frame& frame,
-                                       const std::vector<Vec2>& x, Rigidity rigidity) {
-    std::vector<double> s(2 * a.num_faces());
-    for (int f = 0; f < a.num_faces(); ++f) {
-        auto c = a.face(f);
-        double d = 0, k = 0, n2 = 0;
-        for (size_t i = 0; i < c.size(); ++i) {
-            const int32_t p = c[i], q = c[(i + 1) % c.size()];
-            const Vec2 er = frame.reference[q] - frame.reference[p], ex = x[q] - x[p];
-            d += dot(er, ex), k += cross(er, ex), n2 += dot(er, er);
-        }
-        if (rigidity == Rigidity::as_rigid) {
-            s[2 * f] = std::atan2(k, d);
-        } else {
-            s[2 * f] = d / n2, s[2 * f + 1] = k / n2;
-        }
-    }
-    return s;
 }
 
 struct FitProblem {

@@ -160,4 +160,20 @@ int level_for_density(const Mesh& mesh, int pixels, double density, int max_leve
     return best;
 }
 
+DefaultGrid default_grid(int width, int height, double density, int levels) {
+    if (!(density > 0) || !std::isfinite(density)) {
+        throw Error(str("density: ", density, " must be a positive number of samples per pixel"));
+    }
+    const double root = std::sqrt(density);
+    const double short_side = std::min(width, height) * root;
+    DefaultGrid g;
+    g.levels = levels > 0
+                   ? levels
+                   : std::clamp(static_cast<int>(std::floor(std::log2(short_side))) - 3, 1, 7);
+    const double cell = std::ldexp(1.0, g.levels) / root;  // pixels per T0 cell side
+    g.cols = std::max(1, static_cast<int>(std::lround(width / cell)));
+    g.rows = std::max(1, static_cast<int>(std::lround(height / cell)));
+    return g;
+}
+
 }  // namespace tesswave

@@ -35,7 +35,19 @@ void sample_image_into(const Image& image, const Hierarchy& hierarchy,
                        std::span<const Vec2> mesh_vertices, std::span<const std::span<float>> out,
                        const SampleOptions& options = {});
 
-// The level whose sample count is closest (in ratio) to `density` samples per pixel.
+// The level whose sample count is closest (in ratio) to `density` samples per pixel: J of a mesh
+// the caller gives (morph, analyze, the still codec's --mesh).
 int level_for_density(const Mesh& mesh, int pixels, double density, int max_level = 12);
+
+// The grid the codecs build when no mesh is given: J from 1 to 7 so that the image's shorter side
+// gets 8 to 16 T0 cells, then as many cells as make `density` samples a pixel at level J. The one
+// rule for J: level_for_density of this grid gives back `levels` (a test checks it). A positive
+// `levels` fixes J and only sizes the cells.
+struct DefaultGrid {
+    int levels = 1;
+    int cols = 1;
+    int rows = 1;
+};
+DefaultGrid default_grid(int width, int height, double density, int levels = 0);
 
 }  // namespace tesswave
