@@ -76,6 +76,16 @@ Mesh mesh_for(const std::string& spec, const std::string& image_path, const Imag
 // --density has one range everywhere: samples per pixel in [0.01, 16].
 inline CLI::Range density_range() { return CLI::Range(0.01, 16.0); }
 
+// --sampling point|fit, one meaning on every command that puts an image on a mesh.
+inline CLI::Option* add_sampling_option(CLI::App* cmd, std::string& value) {
+    return cmd
+        ->add_option("--sampling", value,
+                     "How images go on the mesh: fit (the samples that render closest to the "
+                     "image) or point (read at the sample positions)")
+        ->capture_default_str()
+        ->check(CLI::IsMember({"point", "fit"}));
+}
+
 // The analyze job, shared by `tesswave analyze` and the demo.
 struct AnalyzeRequest {
     std::string image, mesh, output;  // mesh: a --mesh spec (empty: the paper's T0)
@@ -84,6 +94,7 @@ struct AnalyzeRequest {
     double density = 3.5;                     // samples per pixel, the paper's figure
     std::vector<double> keep = {10, 1, 0.1};  // percentages of the detail coefficients
     std::string select = "paper";
+    std::string sampling = "fit";
     bool overwrite = false;
     std::string mesh_description;
 };

@@ -14,6 +14,7 @@
 #include "core/io/mesh_io.h"
 #include "core/math/error.h"
 #include "core/math/grid_mesh.h"
+#include "core/math/project.h"
 #include "core/math/sampling.h"
 #include "core/math/strings.h"
 #include "core/math/validate.h"
@@ -52,6 +53,8 @@ nlohmann::json report_json(const AnalyzeRequest& request, const Image& image,
             {"levels", r.levels},
             {"samples", r.samples},
             {"samples_per_pixel", r.samples_per_pixel},
+            {"sampling", request.sampling},
+            {"projection_iterations", r.projection_iterations},
             {"rows", rows}};
 }
 
@@ -89,6 +92,7 @@ AnalysisResult run_analyze(const AnalyzeRequest& request) {
     AnalysisOptions options;
     options.keep = request.keep;
     options.picture_rule = request.select == "l2" ? SelectionRule::l2 : SelectionRule::paper;
+    options.sampling = sampling_from_name(request.sampling);
     options.levels = request.levels > 0
                          ? request.levels
                          : level_for_density(mesh, image.width * image.height, request.density);
@@ -146,6 +150,7 @@ void add_analyze_command(CLI::App& app) {
     cmd->add_option("--select", q.select, "Rule of the reconstructions written: paper or l2")
         ->capture_default_str()
         ->check(CLI::IsMember({"paper", "l2"}));
+    add_sampling_option(cmd, q.sampling);
     cmd->add_option("-o,--output", q.output, "Output folder")->required();
     cmd->add_flag("-y,--overwrite", q.overwrite, "Overwrite files in a non-empty folder");
     cmd->add_flag("--json", args->json, "Print the report as JSON instead of a table");
@@ -157,8 +162,13 @@ void add_analyze_command(CLI::App& app) {
                 read_file((fs::path(args->request.output) / "report.json").string()).c_str());
             return;
         }
-        std::printf("%s: J=%d, %lld samples (%.2f per pixel)\n", args->request.image.c_str(),
-                    r.levels, static_cast<long long>(r.samples), r.samples_per_pixel);
+        std::printf("%s: J=%d, %lld samples (%.2f per pixel), %s sampling",
+                    args->request.image.c_str(), r.levels, static_cast<long long>(r.samples),
+                    r.samples_per_pixel, args->request.sampling.c_str());
+        if (args->request.sampling == "fit") {
+            std::printf(" (%d iterations)", r.projection_iterations);
+        }
+        std::printf("\n");
         print_analysis_table(r);
         std::printf("outputs in %s\n", args->request.output.c_str());
     });

@@ -9,6 +9,7 @@
 #include "core/io/file_io.h"
 #include "core/io/image_io.h"
 #include "core/math/error.h"
+#include "core/math/project.h"
 #include "core/math/strings.h"
 
 namespace tesswave::cli {
@@ -20,7 +21,7 @@ TwiTransform parse_grid(const std::string& grid) {
 }
 
 struct CompressArgs {
-    std::string input, output, mesh, grid;
+    std::string input, output, mesh, grid, sampling = "fit";
     double bpp = 0, psnr = 0, density = 1.0;
     bool lossless = false, aligned = false, fit_mesh = false, overwrite = false, json = false;
     int levels = 0;
@@ -67,6 +68,7 @@ void run_compress(CompressArgs a) {
     o.aligned = a.aligned;
     o.levels = a.levels;
     o.density = a.density;
+    o.sampling = sampling_from_name(a.sampling);
     ProgressBar bar;
     o.progress = [&bar](double done, const char* stage) { bar.update(done, stage); };
     StillResult r;
@@ -102,15 +104,18 @@ void run_compress(CompressArgs a) {
                         {"bpp", bpp},
                         {"psnr", r.psnr},
                         {"target_reached", r.target_reached},
+                        {"sampling", r.sampling},
                         {"seconds", seconds}};
     if (a.json) {
         std::printf("%s\n", j.dump(2).c_str());
         return;
     }
-    std::printf("%s -> %s: %zu bytes, %.4f bpp, PSNR %.2f dB (%s, %sJ=%d), %.2f s\n",
+    const std::string sampling =
+        r.header.transform == TwiTransform::mesh && !r.header.lossless ? r.sampling + ", " : "";
+    std::printf("%s -> %s: %zu bytes, %.4f bpp, PSNR %.2f dB (%s, %s%sJ=%d), %.2f s\n",
                 a.input.c_str(), a.output.c_str(), r.file.size(), bpp, r.psnr,
                 transform_name(r.header.transform), r.header.lossless ? "lossless, " : "",
-                r.header.levels, seconds);
+                sampling.c_str(), r.header.levels, seconds);
 }
 
 struct DecompressArgs {
@@ -183,6 +188,7 @@ void add_codec_commands(CLI::App& app) {
     cmd->add_option("--density", c->density, "Mesh samples per pixel when J is chosen")
         ->capture_default_str()
         ->check(density_range());
+    add_sampling_option(cmd, c->sampling);
     cmd->add_flag("-y,--overwrite", c->overwrite, "Overwrite the output");
     cmd->add_flag("--json", c->json, "Print the result as JSON");
     cmd->callback([c] { run_compress(*c); });

@@ -18,6 +18,7 @@
 #include "core/io/image_io.h"
 #include "core/math/error.h"
 #include "core/math/metrics.h"
+#include "core/math/project.h"
 #include "core/math/strings.h"
 
 namespace fs = std::filesystem;
@@ -30,6 +31,7 @@ struct CompareArgs {
     std::vector<double> bpp = {0.25, 0.5, 1, 2};
     std::string output;
     double density = 1.0;
+    std::string sampling = "fit";
     bool overwrite = false, json = false;
 };
 
@@ -43,8 +45,9 @@ struct Row {
 
 const char* const kMethods[] = {"mesh", "mesh aligned", "grid 5/3", "grid 9/7", "JPEG 2000"};
 
-StillOptions method_options(int method, double density) {
+StillOptions method_options(int method, double density, const std::string& sampling) {
     StillOptions o;
+    o.sampling = sampling_from_name(sampling);
     o.measure = false;
     o.density = density;
     if (method == 1) o.aligned = true;
@@ -55,7 +58,8 @@ StillOptions method_options(int method, double density) {
 
 // Encodes with one of our methods (method < 4) or JPEG 2000 into `budget` bytes (0: lossless),
 // decodes, and measures.
-Row run_method(const Image& image, int method, int64_t budget, double density, Image* decoded) {
+Row run_method(const Image& image, int method, int64_t budget, double density,
+               const std::string& sampling, Image* decoded) {
     Row row;
     row.method = kMethods[method];
     const double pixels = double(image.width) * image.height;
@@ -64,7 +68,7 @@ Row run_method(const Image& image, int method, int64_t budget, double density, I
     if (method == 4) {
         file = encode_jpeg2000(image, {.target_bytes = budget});
     } else {
-        StillOptions o = method_options(method, density);
+        StillOptions o = method_options(method, density, sampling);
         o.lossless = budget == 0;
         o.max_bytes = budget;
         file = compress_image(image, o).file;
@@ -204,7 +208,7 @@ void run_compare(const CompareArgs& a) {
         const std::string stem = fs::path(a.images[i]).stem().string();
         bar.update(done / steps, "lossless");
         for (int m : {1, 2, 4}) {
-            Row r = run_method(image, m, 0, a.density, nullptr);
+            Row r = run_method(image, m, 0, a.density, a.sampling, nullptr);
             r.image = name;
             lossless.push_back(r);
         }
@@ -221,7 +225,7 @@ void run_compare(const CompareArgs& a) {
             png.bpp = png.bytes * 8.0 / (double(image.width) * image.height);
             lossless.push_back(png);
         }
-        StillOptions lo = method_options(0, a.density);
+        StillOptions lo = method_options(0, a.density, a.sampling);
         lo.lossless = true;
         lo.measure = true;
         Row rs;
@@ -239,11 +243,11 @@ void run_compare(const CompareArgs& a) {
             std::vector<Image> crops = {centre_crop(image, 256, 256)};
             std::vector<std::string> captions = {"original"};
             Image decoded;
-            Row j2k = run_method(image, 4, budget, a.density, &decoded);
+            Row j2k = run_method(image, 4, budget, a.density, a.sampling, &decoded);
             std::vector<Row> at_rate;
             for (int m = 0; m < 4; ++m) {
                 Image ours;
-                at_rate.push_back(run_method(image, m, j2k.bytes, a.density, &ours));
+                at_rate.push_back(run_method(image, m, j2k.bytes, a.density, a.sampling, &ours));
                 crops.push_back(centre_crop(ours, 256, 256));
                 captions.push_back(
                     str(kMethods[m], " ", std::lround(at_rate.back().psnr * 100) / 100.0));
@@ -302,6 +306,7 @@ void add_compare_command(CLI::App& app) {
         ->capture_default_str()
         ->check(density_range());
     cmd->add_option("-o,--output", a->output, "Output folder")->required();
+    add_sampling_option(cmd, a->sampling);
     cmd->add_flag("-y,--overwrite", a->overwrite, "Overwrite files in a non-empty folder");
     cmd->add_flag("--json", a->json, "Print the results as JSON");
     cmd->callback([a] { run_compare(*a); });

@@ -18,6 +18,7 @@
 #include "core/io/file_io.h"
 #include "core/io/image_io.h"
 #include "core/math/error.h"
+#include "core/math/project.h"
 #include "core/math/strings.h"
 
 namespace fs = std::filesystem;
@@ -36,6 +37,7 @@ struct CompareVideoArgs {
     int64_t frames = 0, shown_frame = -1;
     int group = 32;
     double fps = 0;
+    std::string sampling = "point";  // VideoEncodeOptions says why
     bool overwrite = false, json = false;
 };
 
@@ -226,11 +228,16 @@ void compare_at_rate(Session& s, const ClipInfo& clip, const Image& original, co
                                              rate.text, rate.kbps ? "bit/s)" : " bpp)")};
     for (VideoMethod m : s.methods) {
         const RunContext context{
-            &clip, s.source, s.args.group, s.scratch, [&](double f, const char* what) {
+            &clip,
+            s.source,
+            s.args.group,
+            s.scratch,
+            [&](double f, const char* what) {
                 const std::string stage =
                     str(clip.stem, " ", method_id(m), " ", rate.text, " ", what);
                 s.bar.update((s.done + f * clip.pixels()) / s.total, stage.substr(0, 30).c_str());
-            }};
+            },
+            sampling_from_name(s.args.sampling)};
         Image shown;
         VideoRow row = run_video_method(context, m, rate.bpp(clip), &shown);
         row.rate = rate.text;
@@ -333,6 +340,7 @@ void add_compare_video_command(CLI::App& app) {
     cmd->add_option("--pix-fmt", a->pixel_format,
                     "Raw .yuv input: yuv420p, yuv422p, yuv444p, gray");
     cmd->add_option("-o,--output", a->output, "Output folder")->required();
+    add_sampling_option(cmd, a->sampling);
     cmd->add_flag("-y,--overwrite", a->overwrite, "Overwrite files in a non-empty folder");
     cmd->add_flag("--json", a->json, "Print the whole result as JSON");
     cmd->callback([a] { run_compare_video(*a); });

@@ -12,6 +12,7 @@
 #include "core/io/image_io.h"
 #include "core/io/mesh_io.h"
 #include "core/math/error.h"
+#include "core/math/project.h"
 #include "core/math/strings.h"
 #include "frame_sink.h"
 #include "morph/auto_match.h"
@@ -30,6 +31,7 @@ struct MorphArgs {
     bool automatic = false, preview = false, overwrite = false, json = false;
     int frames = 30, levels = 0;
     double fps = 25, at = -1, density = 2.0;
+    std::string sampling = "point";  // MorphOptions says why
 };
 
 // --at writes one image; otherwise the frames go to a FrameSink.
@@ -121,6 +123,7 @@ void run_morph(const MorphArgs& a) {
     report["correspondences"] = c.a.size();
     report["mesh"] = pair.description;
     morph::MorphOptions o{.levels = a.levels, .density = a.density};
+    o.sampling = sampling_from_name(a.sampling);
     if (!a.size.empty()) {
         auto [w, h] = parse_cells(a.size, "--size");
         o.width = w;
@@ -170,6 +173,7 @@ void add_schedule_options(CLI::App* cmd, MorphArgs& a) {
         ->check(density_range());
     cmd->add_option("-J,--levels", a.levels, "Mesh level J (default from --density)")
         ->check(CLI::Range(1, 10));
+    add_sampling_option(cmd, a.sampling);
     cmd->add_flag("-y,--overwrite", a.overwrite, "Overwrite outputs");
     cmd->add_flag("--json", a.json, "Print a JSON report");
 }

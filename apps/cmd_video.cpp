@@ -10,6 +10,7 @@
 #include "core/io/frame_source.h"
 #include "core/io/image_io.h"
 #include "core/math/error.h"
+#include "core/math/project.h"
 #include "core/math/strings.h"
 #include "frame_sink.h"
 #include "video/dec_video.h"
@@ -25,6 +26,7 @@ struct EncodeArgs {
     double kbps = 0, quality = 0, density = 2.0, intra_weight = 4, fps = 0;
     int levels = 0, group = 32, motion_level = 0;
     int64_t max_frames = 0;
+    std::string sampling = "point";  // VideoEncodeOptions says why
     bool overwrite = false, json = false;
 };
 
@@ -90,6 +92,7 @@ void run_encode(const EncodeArgs& a) {
         .kbps = a.kbps,
         .intra_weight = a.intra_weight};
     if (a.quality > 0) o.quality = a.quality;
+    o.sampling = sampling_from_name(a.sampling);
     if (o.kbps > 0) o.quality = 0;  // the rate decides
     const int64_t total = a.max_frames > 0 ? a.max_frames : source.frame_count_estimate();
     ProgressBar bar;
@@ -349,6 +352,7 @@ void add_video_commands(CLI::App& app) {
                     "Raw .yuv input: yuv420p, yuv422p, yuv444p, gray");
     enc->add_option("--debug-dir", e->debug_dir,
                     "Write each frame with its mesh and tracks as PNG into this folder");
+    add_sampling_option(enc, e->sampling);
     enc->add_flag("-y,--overwrite", e->overwrite, "Overwrite outputs");
     enc->add_flag("--json", e->json, "Print the result (and every frame) as JSON");
     enc->callback([e] { run_encode(*e); });

@@ -5,6 +5,7 @@
 
 #include "core/math/error.h"
 #include "core/math/lifting.h"
+#include "core/math/project.h"
 #include "core/math/render.h"
 #include "core/math/sampling.h"
 #include "core/math/strings.h"
@@ -47,6 +48,7 @@ int morph_levels(const Mesh& mesh_a, int width, int height, const MorphOptions& 
 Morph::Morph(const Image& a, const Image& b, const Mesh& mesh_a, const Mesh& mesh_b,
              const MorphOptions& options)
     : options_(options) {
+    options_.residual = options.residual && options.sampling == Sampling::point;
     if (mesh_a.num_vertices() != mesh_b.num_vertices() ||
         mesh_a.face_offsets != mesh_b.face_offsets || mesh_a.face_corners != mesh_b.face_corners) {
         throw Error("morph: the two meshes do not share one topology");
@@ -71,10 +73,12 @@ Morph::Morph(const Image& a, const Image& b, const Mesh& mesh_a, const Mesh& mes
     preview_ = build_hierarchy(topology_, {.levels = std::max(1, J - 2)});
     const int channels = (a.channels() == 4 && b.channels() == 4) ? 4 : 3;
     report(options.progress, 0.2, "sampling");
-    samples_a_ = sample_image(with_channels(a, channels), hierarchy_, mesh_a.vertices);
-    samples_b_ = sample_image(with_channels(b, channels), hierarchy_, mesh_b.vertices);
+    samples_a_ =
+        place_image(with_channels(a, channels), hierarchy_, mesh_a.vertices, options.sampling);
+    samples_b_ =
+        place_image(with_channels(b, channels), hierarchy_, mesh_b.vertices, options.sampling);
     report(options.progress, 0.5, "residuals");
-    if (options.residual) {
+    if (options_.residual) {
         for (int k = 0; k < 2; ++k) {
             const Image& image = k == 0 ? a : b;
             const Mesh& mesh = k == 0 ? mesh_a : mesh_b;

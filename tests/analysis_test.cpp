@@ -33,10 +33,14 @@ TEST(Analysis, resampling_a_smooth_image_at_density_3_5_is_nearly_lossless) {
     const Image image = smooth_image(249, 251);
     const Mesh mesh = samples::paper_t0(249, 251);
     const AnalysisResult r = analyze_image(image, mesh, {.levels = 7, .keep = {10}});
-    ASSERT_EQ(r.rows[0].method, "resample");
+    ASSERT_EQ(r.rows[0].method, "resample point");
     EXPECT_NEAR(r.samples_per_pixel, 3.49, 0.01);
     EXPECT_GT(r.rows[0].psnr, 40.0);
     EXPECT_GT(r.rows[0].ssim, 0.99);
+    // A smooth image at 3.5 samples a pixel is already within the projection's tolerance: it
+    // keeps the point samples.
+    ASSERT_EQ(r.rows[1].method, "resample fit");
+    EXPECT_GE(r.rows[1].psnr, r.rows[0].psnr - 0.01);
 }
 
 // Keeping every coefficient reconstructs the samples (to float rounding), so the render equals
@@ -60,10 +64,15 @@ TEST(Analysis, full_reconstruction_equals_the_resample) {
             ASSERT_NEAR(a.planes[c][i], b.planes[c][i], 1e-6);
         }
     }
-    const AnalysisResult r = analyze_image(image, mesh, {.levels = 5, .keep = {100}});
-    EXPECT_EQ(r.rows[1].method, "mesh paper");
-    EXPECT_EQ(r.rows[1].kept, r.rows[1].total);
-    EXPECT_NEAR(r.rows[1].psnr, r.rows[0].psnr, 0.01);
+    // Rows 0 and 1 are the point and fit resamples; the analysis goes on with its sampling.
+    for (Sampling sampling : {Sampling::point, Sampling::fit}) {
+        const AnalysisResult r =
+            analyze_image(image, mesh, {.levels = 5, .keep = {100}, .sampling = sampling});
+        const AnalysisRow& resample = r.rows[sampling == Sampling::point ? 0 : 1];
+        EXPECT_EQ(r.rows[2].method, "mesh paper");
+        EXPECT_EQ(r.rows[2].kept, r.rows[2].total);
+        EXPECT_NEAR(r.rows[2].psnr, resample.psnr, 0.01);
+    }
 }
 
 // Fewer coefficients, lower quality; the L2 rule is at least as good as the paper's at equal
@@ -72,13 +81,13 @@ TEST(Analysis, rows_are_ordered_and_complete) {
     const Image image = samples::scene_image(160, 120);
     const AnalysisResult r =
         analyze_image(image, samples::paper_t0(160, 120), {.levels = 6, .keep = {10, 1}});
-    ASSERT_EQ(r.rows.size(), 1u + 4 + 4 + 4);
-    EXPECT_GT(r.rows[1].psnr, r.rows[3].psnr);  // mesh paper 10 % > 1 %
-    EXPECT_GE(r.rows[4].psnr, r.rows[3].psnr);  // mesh l2 1 % >= paper 1 %
-    EXPECT_EQ(r.rows[5].method, "grid 5/3");
-    EXPECT_EQ(r.rows[5].total, 160 * 120 - 20 * 15);  // all but the 3-level LL band (20x15)
-    EXPECT_EQ(r.rows[7].method, "grid 5/3 =n");
-    EXPECT_EQ(r.rows[7].kept, r.rows[1].kept);  // as many coefficients as the mesh kept
+    ASSERT_EQ(r.rows.size(), 2u + 4 + 4 + 4);
+    EXPECT_GT(r.rows[2].psnr, r.rows[4].psnr);  // mesh paper 10 % > 1 %
+    EXPECT_GE(r.rows[5].psnr, r.rows[4].psnr);  // mesh l2 1 % >= paper 1 %
+    EXPECT_EQ(r.rows[6].method, "grid 5/3");
+    EXPECT_EQ(r.rows[6].total, 160 * 120 - 20 * 15);  // all but the 3-level LL band (20x15)
+    EXPECT_EQ(r.rows[8].method, "grid 5/3 =n");
+    EXPECT_EQ(r.rows[8].kept, r.rows[2].kept);  // as many coefficients as the mesh kept
     EXPECT_EQ(r.mesh_images.size(), 2u);
     EXPECT_EQ(r.grid97_images.size(), 2u);
 }

@@ -85,22 +85,28 @@ TEST(VideoCodec, PinnedRatesAndQualities) {
         double kbps, quality;
         int64_t bytes;
         double psnr;
+        Sampling sampling = Sampling::point;
     };
     // 6 frames of 64x48 at 25 fps: 100 kbit/s is 3000 bytes, plus the header, groups and index.
-    const Pin pins[] = {
-        {TwiTransform::mesh, 100, 0, 3472, 35.034},   {TwiTransform::mesh, 300, 0, 10330, 40.181},
-        {TwiTransform::mesh, 0, 28, 953, 27.981},     {TwiTransform::mesh, 0, 34, 2505, 33.938},
-        {TwiTransform::grid53, 100, 0, 3472, 34.418}, {TwiTransform::grid53, 0, 34, 2839, 34.020}};
+    const Pin pins[] = {{TwiTransform::mesh, 100, 0, 3472, 35.034},
+                        {TwiTransform::mesh, 300, 0, 10330, 40.181},
+                        {TwiTransform::mesh, 0, 28, 953, 27.981},
+                        {TwiTransform::mesh, 0, 34, 2505, 33.938},
+                        {TwiTransform::grid53, 100, 0, 3472, 34.418},
+                        {TwiTransform::grid53, 0, 34, 2839, 34.020},
+                        {TwiTransform::mesh, 100, 0, 3472, 35.135, Sampling::fit},
+                        {TwiTransform::mesh, 0, 34, 2567, 33.976, Sampling::fit}};
     for (const Pin& pin : pins) {
         const Coded coded = encode(frames, path,
                                    {.transform = pin.transform,
                                     .group = 4,
                                     .kbps = pin.kbps,
-                                    .quality = pin.quality > 0 ? pin.quality : 30});
-        SCOPED_TRACE(::testing::Message()
-                     << "transform " << static_cast<int>(pin.transform) << ", " << pin.kbps
-                     << " kbps, " << pin.quality << " dB: " << coded.bytes << " bytes, "
-                     << mean_psnr(coded) << " dB");
+                                    .quality = pin.quality > 0 ? pin.quality : 30,
+                                    .sampling = pin.sampling});
+        SCOPED_TRACE(::testing::Message() << sampling_name(pin.sampling) << " sampling, transform "
+                                          << static_cast<int>(pin.transform) << ", " << pin.kbps
+                                          << " kbps, " << pin.quality << " dB: " << coded.bytes
+                                          << " bytes, " << mean_psnr(coded) << " dB");
         EXPECT_NEAR(static_cast<double>(coded.bytes), static_cast<double>(pin.bytes),
                     0.02 * static_cast<double>(pin.bytes));
         EXPECT_NEAR(mean_psnr(coded), pin.psnr, 0.05);
@@ -292,9 +298,14 @@ TEST(VideoCodec, QualityTargetsMetOrLoweredToTheMeshCeiling) {
     EXPECT_LT(reachable.frames[0].psnr, 31);
     // 60 dB is beyond what sampling on the mesh and rendering back keeps: the target drops to
     // just below that ceiling instead of driving the step (and the rate) to the limit.
-    const Coded capped = encode(frames, path, {.quality = 60});
+    const Coded capped = encode(frames, path, {.quality = 60, .sampling = Sampling::point});
     EXPECT_LT(capped.frames[0].quality_target, 50);
     EXPECT_NEAR(capped.frames[0].psnr, capped.frames[0].quality_target, 0.3);
+    // The projection without smoothness raises that ceiling (density 2: nearly exact).
+    const Coded fit = encode(
+        frames, path, {.quality = 60, .sampling = Sampling::fit, .projection = {.smoothness = 0}});
+    EXPECT_GT(fit.frames[0].quality_target, capped.frames[0].quality_target + 5);
+    EXPECT_NEAR(fit.frames[0].psnr, fit.frames[0].quality_target, 0.3);
     const Coded grid = encode(frames, path, {.transform = TwiTransform::grid53, .quality = 60});
     EXPECT_EQ(grid.frames[0].quality_target, 60);  // the grid reaches it
     EXPECT_GE(grid.frames[0].psnr, 60);

@@ -157,7 +157,7 @@ int64_t VideoEncoder::frame_budget(bool intra, uint64_t spent) const {
 // 0.25 dB below that ceiling, so that the rate stays finite; quality_target_ says which was used.
 float VideoEncoder::calibrate_step(const Image& frame) {
     Planes x;
-    domain_->analyze(frame, vertices_, x);
+    domain_->analyze(frame, vertices_, x, options_.sampling, options_.projection);
     Image image;
     const auto psnr_at = [&](double log_step) {
         const float step = static_cast<float>(std::exp2(log_step));
@@ -193,7 +193,7 @@ void VideoEncoder::start_group(int64_t number) {
 }
 
 std::vector<uint8_t> VideoEncoder::code_frame(const Image& frame, TwvFrame& f, int64_t budget) {
-    domain_->analyze(frame, vertices_, residual_);
+    domain_->analyze(frame, vertices_, residual_, options_.sampling, options_.projection);
     if (f.kind == TwvFrameKind::intra) coefficients_ = domain_->zeros();
     for (size_t c = 0; c < residual_.size(); ++c) {
         for (size_t i = 0; i < residual_[c].size(); ++i) residual_[c][i] -= coefficients_[c][i];

@@ -21,6 +21,7 @@
 
 #include "core/math/image.h"
 #include "core/math/progress.h"
+#include "core/math/project.h"
 #include "enc_motion.h"
 #include "twv_domain.h"
 #include "twv_format.h"
@@ -42,6 +43,11 @@ struct VideoEncodeOptions {
     double quality = 30;
     double intra_weight = 4;
     MeshMotionOptions mesh_motion = {};
+    // How frames go on the mesh (project.h). Point sampling by default: at the rates a video codec
+    // runs at the projection does not pay (carphone, 30 frames, 150 kbit/s: point 29.87 dB; fit
+    // 29.38 dB at smoothness 0.01, 29.47 at 0.03, 29.90 at 0.1, 29.53 at 0.3).
+    Sampling sampling = Sampling::point;
+    ProjectOptions projection = {.smoothness = 0.1};
     // Within each encode() call: the fraction of that frame done and its stage (tracking, fitting
     // the mesh, calibrating, coding). The caller maps frames into its bar with progress_range.
     Progress progress = {};

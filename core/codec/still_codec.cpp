@@ -143,73 +143,163 @@ double image_psnr(const Image& a, const Image& b, int bit_depth) {
 
 double step_for_psnr(double psnr) { return std::sqrt(12.0 * std::pow(10.0, -psnr / 10)); }
 
-StillResult compress_image(const Image& image, const StillOptions& o) {
-    if (o.max_bytes < 0) throw Error(str("byte budget ", o.max_bytes, " is negative"));
-    StillResult result;
-    TwiHeader& h = result.header;
-    h = make_header(image, o);
-    progress(o, 0.0, "preparing");
-    const CodingDomain domain(still_shape(h),
-                              o.lossless ? std::max(o.norm_probes, 1) : o.norm_probes);
-    const CodingLayout& layout = domain.layout();
-    for (const CodingBand& b : layout.bands) h.band_norms.push_back(static_cast<float>(b.norm));
-    progress(o, 0.3, "transforming");
-    IntPlanes q;
-    if (o.lossless) {
-        q = domain.analyze_int(image);
-        const float smallest = *std::min_element(h.band_norms.begin(), h.band_norms.end());
-        for (float n : h.band_norms) {
-            h.shifts.push_back(
-                std::clamp(static_cast<int>(std::lround(std::log2(n / smallest))), 0, 32));
-        }
-    } else {
-        const Planes x = domain.analyze(image);
-        h.shifts.assign(layout.bands.size(), 0);
-        q.assign(h.channels, std::vector<int32_t>(layout.size, 0));
-        for (int c = 0; c < h.channels; ++c) {
-            quantize(layout, x[c], domain.band_steps(c, h.base_step), q[c]);
-        }
-    }
-    h.planes = count_planes(layout, const_spans(q));
-    std::vector<uint8_t> head = write_twi_header(h);
-    h.header_bytes = head.size();
+namespace {
+
+// One coded candidate: a header (its bit-plane counts depend on the samples) and a stream.
+struct Coded {
+    TwiHeader header;
+    std::vector<uint8_t> head, stream;
+    double psnr = 0;  // of the kept prefix (NaN when not measured)
+    bool target_reached = true;
+    size_t bytes() const { return head.size() + stream.size(); }
+};
+
+// Quantizes and codes coefficients `q`, then applies the rate control of `o`.
+Coded code(const CodingDomain& domain, const TwiHeader& base, const IntPlanes& q,
+           const Image& image, const StillOptions& o, bool measure) {
+    Coded c;
+    TwiHeader& h = c.header;
+    h = base;
+    h.planes = count_planes(domain.layout(), const_spans(q));
+    c.head = write_twi_header(h);
+    h.header_bytes = c.head.size();
     BitplaneOptions bo{.shifts = h.shifts};
     if (o.max_bytes > 0) {
-        if (o.max_bytes <= static_cast<int64_t>(head.size())) {
-            throw Error(str("a budget of ", o.max_bytes, " bytes does not hold the ", head.size(),
+        if (o.max_bytes <= static_cast<int64_t>(c.head.size())) {
+            throw Error(str("a budget of ", o.max_bytes, " bytes does not hold the ", c.head.size(),
                             "-byte header"));
         }
-        bo.max_bytes = o.max_bytes - head.size();
+        bo.max_bytes = o.max_bytes - c.head.size();
     }
-    progress(o, 0.5, "coding");
-    std::vector<uint8_t> stream = encode_bitplanes(layout, const_spans(q), h.planes, bo);
-    if (stream.size() > bo.max_bytes) stream.resize(bo.max_bytes);
-
+    c.stream = encode_bitplanes(domain.layout(), const_spans(q), h.planes, bo);
+    if (c.stream.size() > bo.max_bytes) c.stream.resize(bo.max_bytes);
+    const int depth = h.bit_depth;
     if (o.target_psnr > 0 && !o.lossless) {
         // The smallest prefix reaching the target, by bisection (quality rises with the prefix).
-        progress(o, 0.7, "rate search");
-        const int depth = h.bit_depth;
-        size_t lo = 0, hi = stream.size();
-        if (image_psnr(image, reconstruct(domain, h, stream), depth) < o.target_psnr) {
-            result.target_reached = false;  // the whole stream is the best this file can do
+        size_t lo = 0, hi = c.stream.size();
+        c.psnr = image_psnr(image, reconstruct(domain, h, c.stream), depth);
+        if (c.psnr < o.target_psnr) {
+            c.target_reached = false;  // the whole stream is the best this file can do
             lo = hi;
         }
         while (hi - lo > std::max<size_t>(1, hi / 500)) {
             const size_t mid = lo + (hi - lo) / 2;
-            const std::span<const uint8_t> prefix(stream.data(), mid);
+            const std::span<const uint8_t> prefix(c.stream.data(), mid);
             if (image_psnr(image, reconstruct(domain, h, prefix), depth) >= o.target_psnr) {
                 hi = mid;
             } else {
                 lo = mid;
             }
         }
-        stream.resize(hi);
+        c.stream.resize(hi);
     }
-    progress(o, 0.9, "measuring");
-    result.psnr = o.measure ? image_psnr(image, reconstruct(domain, h, stream), h.bit_depth)
-                            : std::numeric_limits<double>::quiet_NaN();
-    result.file = std::move(head);
-    result.file.insert(result.file.end(), stream.begin(), stream.end());
+    c.psnr = measure ? image_psnr(image, reconstruct(domain, h, c.stream), depth)
+                     : std::numeric_limits<double>::quiet_NaN();
+    return c;
+}
+
+// The projections the encoder tries beside point sampling: none (exact, for high rates) and
+// smoothness weights that keep the finest bands cheap (for low rates). On Kodak at density 1,
+// 0.01 to 0.03 is better than point sampling at every kept share from 1 % to 30 %.
+constexpr double kFitSmoothness[] = {0.0, 0.003, 0.03};
+
+// The index of the candidate with the lower error at the target size: at the budget, the
+// smallest file that reaches the target PSNR, or, with the whole stream kept, the best PSNR when
+// every candidate is cut to the shortest one's size.
+size_t pick(const std::vector<Coded>& c, const CodingDomain& domain, const Image& image,
+            const StillOptions& o) {
+    size_t best = 0;
+    if (o.target_psnr > 0) {
+        for (size_t k = 1; k < c.size(); ++k) {
+            const bool better = c[k].target_reached == c[best].target_reached
+                                    ? (c[k].target_reached ? c[k].bytes() < c[best].bytes()
+                                                           : c[k].psnr > c[best].psnr)
+                                    : c[k].target_reached;
+            if (better) best = k;
+        }
+        return best;
+    }
+    if (o.max_bytes > 0) {
+        for (size_t k = 1; k < c.size(); ++k) best = c[k].psnr > c[best].psnr ? k : best;
+        return best;
+    }
+    size_t shortest = c[0].bytes();
+    for (const Coded& k : c) shortest = std::min(shortest, k.bytes());
+    double best_psnr = -INFINITY;
+    for (size_t k = 0; k < c.size(); ++k) {
+        const size_t keep = std::min(c[k].stream.size(), shortest - c[k].head.size());
+        const double p =
+            image_psnr(image, reconstruct(domain, c[k].header, {c[k].stream.data(), keep}),
+                       c[k].header.bit_depth);
+        if (p > best_psnr) best = k, best_psnr = p;
+    }
+    return best;
+}
+
+}  // namespace
+
+StillResult compress_image(const Image& image, const StillOptions& o) {
+    if (o.max_bytes < 0) throw Error(str("byte budget ", o.max_bytes, " is negative"));
+    StillResult result;
+    TwiHeader h = make_header(image, o);
+    progress(o, 0.0, "preparing");
+    const CodingDomain domain(still_shape(h),
+                              o.lossless ? std::max(o.norm_probes, 1) : o.norm_probes);
+    const CodingLayout& layout = domain.layout();
+    for (const CodingBand& b : layout.bands) h.band_norms.push_back(static_cast<float>(b.norm));
+    if (o.lossless) {
+        progress(o, 0.3, "transforming");
+        const IntPlanes q = domain.analyze_int(image);
+        const float smallest = *std::min_element(h.band_norms.begin(), h.band_norms.end());
+        for (float n : h.band_norms) {
+            h.shifts.push_back(
+                std::clamp(static_cast<int>(std::lround(std::log2(n / smallest))), 0, 32));
+        }
+        progress(o, 0.5, "coding");
+        Coded c = code(domain, h, q, image, o, o.measure);
+        result.header = c.header;
+        result.psnr = c.psnr;
+        result.file = std::move(c.head);
+        result.file.insert(result.file.end(), c.stream.begin(), c.stream.end());
+        progress(o, 1.0, "done");
+        return result;
+    }
+    h.shifts.assign(layout.bands.size(), 0);
+    // Point sampling, then the projections when they can differ from it (mesh samples that are
+    // not the pixels themselves).
+    struct Choice {
+        Sampling sampling;
+        double smoothness;
+    };
+    std::vector<Choice> choices = {{Sampling::point, 0}};
+    if (o.sampling == Sampling::fit && o.transform == TwiTransform::mesh && !o.aligned) {
+        for (double beta : kFitSmoothness) choices.push_back({Sampling::fit, beta});
+    }
+    std::vector<Coded> coded;
+    for (size_t k = 0; k < choices.size(); ++k) {
+        const Progress part = progress_range(o.progress, 0.05 + 0.85 * k / choices.size(),
+                                             0.05 + 0.85 * (k + 1) / choices.size());
+        report(part, 0.0, choices[k].sampling == Sampling::point ? "sampling" : "projecting");
+        Planes x;
+        const ProjectOptions po{.smoothness = choices[k].smoothness};
+        domain.analyze(image, {}, x, choices[k].sampling, po);
+        IntPlanes q(h.channels, std::vector<int32_t>(layout.size, 0));
+        for (int c = 0; c < h.channels; ++c) {
+            quantize(layout, x[c], domain.band_steps(c, h.base_step), q[c]);
+        }
+        report(part, 0.4, "coding");
+        coded.push_back(code(domain, h, q, image, o, o.measure || choices.size() > 1));
+    }
+    progress(o, 0.9, "choosing");
+    const size_t best = choices.size() > 1 ? pick(coded, domain, image, o) : 0;
+    Coded& c = coded[best];
+    result.header = c.header;
+    result.psnr = o.measure ? c.psnr : std::numeric_limits<double>::quiet_NaN();
+    result.target_reached = c.target_reached;
+    result.sampling =
+        choices[best].sampling == Sampling::point ? "point" : str("fit ", choices[best].smoothness);
+    result.file = std::move(c.head);
+    result.file.insert(result.file.end(), c.stream.begin(), c.stream.end());
     progress(o, 1.0, "done");
     return result;
 }

@@ -14,6 +14,7 @@
 #include "core/math/image.h"
 #include "core/math/mesh.h"
 #include "core/math/progress.h"
+#include "core/math/project.h"
 
 namespace tesswave {
 
@@ -34,6 +35,10 @@ struct StillOptions {
     // so that sampling and rendering are exact.
     Mesh mesh = {};
     bool aligned = false;
+    // How the image goes on the mesh. With fit the encoder codes point samples and projections
+    // (project.h) of a few smoothness weights and keeps the file with the lower error at the
+    // target size, so that fit is never worse than point.
+    Sampling sampling = Sampling::fit;
     int levels = 0;          // J (mesh) or decomposition levels (grid); 0: chosen
     double density = 1.0;    // samples per pixel when J is chosen
     int norm_probes = 1;     // impulses per band for the band norms
@@ -46,6 +51,7 @@ struct StillResult {
     TwiHeader header;
     double psnr = 0;             // of the decoded file against the input (NaN when not measured)
     bool target_reached = true;  // false: target_psnr was out of reach, the whole stream is kept
+    std::string sampling = "point";  // what the file codes: "point", or "fit" and its smoothness
 };
 
 // The quantizer step (StillOptions::base_step) whose quantization error alone is about `psnr` dB:

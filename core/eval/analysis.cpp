@@ -85,12 +85,22 @@ AnalysisResult analyze_image(const Image& image, const Mesh& mesh, const Analysi
     result.samples = n;
     result.samples_per_pixel = static_cast<double>(n) / (int64_t{image.width} * image.height);
     progress(0.05, "sampling");
-    Planes samples = sample_image(image, h, mesh.vertices);
+    const Planes point = sample_image(image, h, mesh.vertices);
     const RenderPlan plan =
         plan_render(h, mesh.vertices, mesh.width, mesh.height, image.width, image.height);
-    result.resampled = render(plan, const_spans(samples), image.format);
     const int64_t total = n - n0;
-    result.rows.push_back(measure(image, result.resampled, "resample", 100, total, total));
+    Image rendered = render(plan, const_spans(point), image.format);
+    result.rows.push_back(measure(image, rendered, "resample point", 100, total, total));
+    ProjectOptions po = options.projection;
+    const std::vector<std::span<const float>> anchor = const_spans(point);
+    if (po.anchor.empty()) po.anchor = anchor;
+    Projection fit = project_image(image, h, mesh.vertices, po);
+    result.projection_iterations = fit.iterations;
+    Image fitted = render(plan, const_spans(fit.planes), image.format);
+    result.rows.push_back(measure(image, fitted, "resample fit", 100, total, total));
+    const bool use_fit = options.sampling == Sampling::fit;
+    Planes samples = use_fit ? std::move(fit.planes) : point;
+    result.resampled = use_fit ? std::move(fitted) : std::move(rendered);
 
     progress(0.15, "transforming");
     Planes coefficients = samples;

@@ -11,6 +11,7 @@
 #include "core/math/image.h"
 #include "core/math/mesh.h"
 #include "core/math/progress.h"
+#include "core/math/project.h"
 #include "core/math/selection.h"
 
 namespace tesswave {
@@ -20,12 +21,15 @@ struct AnalysisOptions {
     std::vector<double> keep = {10, 1, 0.1};            // percentages of the detail coefficients
     SelectionRule picture_rule = SelectionRule::paper;  // the rule of the reconstructions kept
     int grid_levels = 5;                                // fixed-grid decomposition levels
+    Sampling sampling = Sampling::fit;                  // how the image is put on the mesh
+    ProjectOptions projection = {};                     // for Sampling::fit
     Progress progress = {};                             // optional
 };
 
 struct AnalysisRow {
-    // "resample", "mesh paper", "mesh l2", "grid 5/3", "grid 9/7", and "grid 5/3 =n",
-    // "grid 9/7 =n": the fixed grid keeping as many coefficients as the mesh rows of that keep.
+    // "resample point", "resample fit" (both whatever the sampling), "mesh paper", "mesh l2", "grid
+    // 5/3", "grid 9/7", and "grid 5/3 =n", "grid 9/7 =n": the fixed grid keeping as many
+    // coefficients as the mesh rows of that keep.
     std::string method;
     double keep_percent = 100;
     int64_t kept = 0;   // detail coefficients kept
@@ -37,7 +41,8 @@ struct AnalysisResult {
     int levels = 0;
     int64_t samples = 0;
     double samples_per_pixel = 0;
-    Image resampled;     // sampled and rendered back, no coefficient dropped
+    Image resampled;                // put on the mesh by the chosen sampling and rendered back
+    int projection_iterations = 0;  // Sampling::fit
     Image coefficients;  // the transform rendered: coarse values as they are, details x10 + 1/2
     std::vector<Image> mesh_images;                   // per keep value, picture_rule
     std::vector<Image> grid53_images, grid97_images;  // per keep value, paper rule

@@ -11,6 +11,7 @@
 #include "core/io/frame_source.h"
 #include "core/math/image.h"
 #include "core/math/progress.h"
+#include "core/math/project.h"
 
 namespace tesswave::eval {
 
@@ -45,6 +46,7 @@ struct RunContext {
     std::string scratch_dir;  // where our .twv streams live while they are decoded
     // Called as the run proceeds: fraction of this run done, and what it is doing.
     Progress progress;
+    Sampling sampling = Sampling::point;  // how our mesh methods put frames on the mesh
 };
 
 struct VideoRow {

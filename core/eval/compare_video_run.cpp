@@ -74,14 +74,15 @@ double kbps_for(const ClipInfo& clip, double bpp) {
 int64_t encode_ours(const RunContext& c, VideoMethod method, double target_bpp,
                     const std::string& stream, VideoRow& row) {
     const ClipInfo& clip = *c.clip;
-    const video::VideoEncodeOptions o{
-        .transform = method == VideoMethod::grid53   ? TwiTransform::grid53
-                     : method == VideoMethod::grid97 ? TwiTransform::grid97
-                                                     : TwiTransform::mesh,
-        .motion =
-            method == VideoMethod::moving_mesh ? video::TwvMotion::tracked : video::TwvMotion::none,
-        .group = c.group,
-        .kbps = kbps_for(clip, target_bpp)};
+    video::VideoEncodeOptions o{.transform = method == VideoMethod::grid53   ? TwiTransform::grid53
+                                             : method == VideoMethod::grid97 ? TwiTransform::grid97
+                                                                             : TwiTransform::mesh,
+                                .motion = method == VideoMethod::moving_mesh
+                                              ? video::TwvMotion::tracked
+                                              : video::TwvMotion::none,
+                                .group = c.group,
+                                .kbps = kbps_for(clip, target_bpp)};
+    o.sampling = c.sampling;
     row.setting = str("kbps ", std::lround(o.kbps * 100) / 100.0);
     FrameSource source(clip.path, c.source);
     video::VideoEncoder encoder(stream, clip.width, clip.height, clip.fps, o);

@@ -6,6 +6,8 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "core/math/grid_mesh.h"
+#include "core/math/project.h"
 #include "core/math/render.h"
 #include "core/math/sampling.h"
 #include "core/math/voronoi.h"
@@ -92,6 +94,38 @@ void BM_sample_full(benchmark::State& state) {
     finish(state);
 }
 
+// Density 1, the codecs' default grid (not aligned with the pixels): point sampling against the
+// projection (project.h) with its default options, on the same mesh.
+struct DensityOne {
+    DefaultGrid g = default_grid(kWidth, kHeight, 1.0);
+    Mesh mesh = grid_mesh(kWidth, kHeight, g.cols, g.rows);
+    Hierarchy h = build_hierarchy(mesh, {.levels = g.levels});
+};
+
+const DensityOne& density_one() {
+    static const DensityOne d;
+    return d;
+}
+
+void BM_sample_full_density1(benchmark::State& state) {
+    const DensityOne& d = density_one();
+    for (auto _ : state)
+        benchmark::DoNotOptimize(sample_image(setup().image, d.h, d.mesh.vertices));
+    state.SetItemsProcessed(state.iterations() * int64_t{kWidth} * kHeight);
+}
+
+void BM_project_density1(benchmark::State& state) {
+    const DensityOne& d = density_one();
+    int iterations = 0;
+    for (auto _ : state) {
+        const Projection p = project_image(setup().image, d.h, d.mesh.vertices);
+        iterations = p.iterations;
+        benchmark::DoNotOptimize(p.planes[0].data());
+    }
+    state.SetItemsProcessed(state.iterations() * int64_t{kWidth} * kHeight);
+    state.counters["cg_iterations"] = iterations;
+}
+
 // The peer: cv::remap, bilinear, 3-channel float, with a smooth warp map made once.
 void BM_cv_remap(benchmark::State& state) {
     const Setup& s = setup();
@@ -122,5 +156,7 @@ BENCHMARK(BM_render_apply)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_render_plan)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_sample_apply)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_sample_full)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_sample_full_density1)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_project_density1)->Unit(benchmark::kMillisecond);
 
 }  // namespace tesswave

@@ -1,0 +1,65 @@
+// Projection of an image onto a mesh: the level-J samples that the renderer turns into the image
+// most closely, where point sampling (sampling.h) only reads the image at the sample positions.
+//
+// Rendering is linear in the samples, render(s) = R s, with four bilinear weights a pixel
+// (render.h). project_image returns, for each channel, the s that minimises
+//
+//     E(s) = sum_p m_p ((R s)_p - I_p)^2  +  alpha u sum_k (s_k - a_k)^2
+//                                         +  beta u sum_(k,l) (s_k - s_l)^2
+//
+// where p runs over the pixels, m_p is 0 for a pixel with a non-finite value in any channel and 1
+// otherwise, a is the anchor (the prefiltered point samples unless the caller gives one), (k, l)
+// runs over the edges of every quad's level-J sample grid, and u = pixels / samples scales both
+// weights to the data term. alpha keeps the problem well posed where faces are smaller than
+// pixels (samples no pixel reads stay at the anchor); beta damps the finest bands, where an
+// unregularized fit sharpens (it undoes the renderer's bilinear blur) and puts energy a coder has
+// to pay for. The normal equations (R^T M R + alpha u I + beta u L) s = R^T M I + alpha u a are
+// solved by conjugate gradients with a Jacobi preconditioner, warm-started from the anchor; R^T R
+// is assembled once per call as a 3x3 stencil per node of each quad's grid.
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <string_view>
+#include <vector>
+
+#include "core/math/geometry.h"
+#include "core/math/hierarchy.h"
+#include "core/math/image.h"
+
+namespace tesswave {
+
+struct ProjectOptions {
+    int level = -1;               // -1: the finest level
+    double anchor_weight = 1e-3;  // alpha, > 0
+    double smoothness = 0.0;      // beta, >= 0
+    int max_iterations = 30;      // conjugate-gradient iterations, 0 .. 1000
+    double tolerance = 1e-4;      // stop when each channel's residual is this part of its b
+    // One plane per channel (the level's sample count each); empty: the prefiltered point samples.
+    std::span<const std::span<const float>> anchor = {};
+};
+
+struct Projection {
+    std::vector<std::vector<float>> planes;  // one per channel, the level's samples
+    int iterations = 0;                      // conjugate-gradient iterations run
+    double residual = 0;                     // largest relative residual of the normal equations
+};
+
+// The mesh domain is taken to be the image's pixel rectangle, as in sample_image. Throws Error
+// for a level out of range, bad options or an anchor of the wrong size.
+Projection project_image(const Image& image, const Hierarchy& hierarchy,
+                         std::span<const Vec2> mesh_vertices, const ProjectOptions& options = {});
+
+// How an image is put on a mesh: point sampling (sample_image) or the projection above.
+enum class Sampling : uint8_t { point, fit };
+
+// "point" or "fit"; Error for anything else.
+Sampling sampling_from_name(std::string_view name);
+const char* sampling_name(Sampling sampling);
+
+// The image's samples at level `level` (-1: the finest) by either method.
+std::vector<std::vector<float>> place_image(const Image& image, const Hierarchy& hierarchy,
+                                            std::span<const Vec2> mesh_vertices, Sampling sampling,
+                                            int level = -1, const ProjectOptions& options = {});
+
+}  // namespace tesswave

@@ -1,0 +1,162 @@
+#include "core/math/project.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+
+#include "core/math/error.h"
+#include "core/math/grid_mesh.h"
+#include "core/math/lifting.h"
+#include "core/math/metrics.h"
+#include "core/math/render.h"
+#include "core/math/sampling.h"
+#include "core/math/voronoi.h"
+#include "samples/sample_images.h"
+
+namespace tesswave {
+namespace {
+
+using Planes = std::vector<std::vector<float>>;
+
+// The image rendered back from samples on the mesh, in float.
+Image rendered(const Hierarchy& h, const Mesh& mesh, const Planes& samples, int w, int height) {
+    const RenderPlan plan = plan_render(h, mesh.vertices, w, height, w, height);
+    const std::vector<std::span<const float>> in(samples.begin(), samples.end());
+    return render(plan, in, SampleFormat::f32);
+}
+
+double round_trip(const Image& image, const Hierarchy& h, const Mesh& mesh, const Planes& s) {
+    return psnr(image, rendered(h, mesh, s, image.width, image.height), {.bit_depth = 16}).all;
+}
+
+bool all_finite(const Planes& planes) {
+    for (const auto& p : planes) {
+        for (float v : p) {
+            if (!std::isfinite(v)) return false;
+        }
+    }
+    return true;
+}
+
+// A grid whose level-J samples fall between pixel centres, at about one sample a pixel: point
+// sampling blurs twice (sampling, then rendering); the projection undoes most of it.
+TEST(Project, a_grid_between_the_pixels_gains_over_point_sampling) {
+    const Image image = samples::scene_image(160, 120);
+    const Mesh mesh = grid_mesh(160, 120, 10, 8);  // J = 4: 16-pixel cells, ~1 sample a pixel
+    const Hierarchy h = build_hierarchy(mesh, {.levels = 4});
+    const Planes point = sample_image(image, h, mesh.vertices);
+    const Projection fit = project_image(image, h, mesh.vertices);
+    const double p = round_trip(image, h, mesh, point), f = round_trip(image, h, mesh, fit.planes);
+    EXPECT_GT(f, p + 8) << "point " << p << " dB, fit " << f << " dB";
+    EXPECT_GT(fit.iterations, 0);
+    EXPECT_LE(fit.iterations, ProjectOptions{}.max_iterations);
+    EXPECT_TRUE(all_finite(fit.planes));
+}
+
+// The same on a Voronoi mesh (J for about 2 samples a pixel): not a grid trick.
+TEST(Project, a_voronoi_mesh_gains_too) {
+    const Image image = samples::scene_image(160, 120, 3);
+    const Mesh mesh = voronoi_mesh(160, 120, {.sites = 30, .seed = 4});
+    const int J = level_for_density(mesh, 160 * 120, 2.0);
+    const Hierarchy h = build_hierarchy(mesh, {.levels = J});
+    const double p = round_trip(image, h, mesh, sample_image(image, h, mesh.vertices));
+    const double f = round_trip(image, h, mesh, project_image(image, h, mesh.vertices).planes);
+    EXPECT_GT(f, p + 5) << "point " << p << " dB, fit " << f << " dB";
+}
+
+// Smoothness trades the round trip for cheaper finest bands: their energy falls.
+TEST(Project, smoothness_shrinks_the_finest_band) {
+    const Image image = samples::scene_image(160, 120);
+    const Mesh mesh = grid_mesh(160, 120, 10, 8);
+    const Hierarchy h = build_hierarchy(mesh, {.levels = 4});
+    auto finest_energy = [&](double beta) {
+        Planes x = project_image(image, h, mesh.vertices, {.smoothness = beta}).planes;
+        std::vector<std::span<float>> s(x.begin(), x.end());
+        forward_transform(h, s);
+        double e = 0;
+        for (const auto& plane : x) {
+            for (int32_t i = h.num_samples(3); i < h.num_samples(4); ++i) e += plane[i] * plane[i];
+        }
+        return e;
+    };
+    EXPECT_LT(finest_energy(0.03), 0.7 * finest_energy(0.0));
+}
+
+// Alpha is a channel like the others; each channel is fitted on its own, whatever the others.
+TEST(Project, any_number_of_channels) {
+    const Mesh mesh = grid_mesh(64, 48, 4, 3);
+    const Hierarchy h = build_hierarchy(mesh, {.levels = 4});
+    const Image scene = samples::scene_image(64, 48);
+    std::vector<float> first;
+    for (int channels : {1, 2, 4}) {
+        Image image = make_image(64, 48, channels, SampleFormat::f32);
+        for (int c = 0; c < channels; ++c) image.planes[c] = scene.planes[c % 3];
+        const Projection fit = project_image(image, h, mesh.vertices);
+        ASSERT_EQ(fit.planes.size(), static_cast<size_t>(channels));
+        if (first.empty()) first = fit.planes[0];
+        EXPECT_EQ(fit.planes[0], first) << channels << " channels";
+        if (channels == 4) {
+            EXPECT_EQ(fit.planes[3], fit.planes[0]);  // alpha = red here
+        }
+    }
+}
+
+// Non-finite pixels are left out of the fit: no NaN anywhere, and the rest still fits.
+TEST(Project, non_finite_pixels_are_ignored) {
+    Image image = samples::scene_image(96, 64);
+    const Mesh mesh = grid_mesh(96, 64, 6, 4);
+    const Hierarchy h = build_hierarchy(mesh, {.levels = 4});
+    const double clean = round_trip(image, h, mesh, project_image(image, h, mesh.vertices).planes);
+    image.planes[1][100] = std::numeric_limits<float>::quiet_NaN();
+    image.planes[0][2000] = std::numeric_limits<float>::infinity();
+    const Projection fit = project_image(image, h, mesh.vertices);
+    EXPECT_TRUE(all_finite(fit.planes));
+    Image reference = samples::scene_image(96, 64);
+    EXPECT_GT(round_trip(reference, h, mesh, fit.planes), clean - 3);
+    // All non-finite: the anchor (zeros where the point samples were not finite).
+    Image empty = make_image(8, 8, 1, SampleFormat::f32);
+    for (float& v : empty.planes[0]) v = std::numeric_limits<float>::quiet_NaN();
+    const Mesh small = grid_mesh(8, 8, 1, 1);
+    const Hierarchy hs = build_hierarchy(small, {.levels = 2});
+    EXPECT_TRUE(all_finite(project_image(empty, hs, small.vertices).planes));
+}
+
+// Faces far smaller than pixels (underdetermined: many samples, few pixels) and a mesh far
+// coarser than the pixels (overdetermined): bounded iterations, finite values, and a render
+// never worse than point sampling.
+TEST(Project, tiny_and_huge_cells_are_never_worse_than_point_sampling) {
+    const Image image = samples::scene_image(48, 36);
+    for (const auto& [cols, rows, levels] :
+         {std::tuple{3, 2, 6}, std::tuple{1, 1, 2}, std::tuple{2, 1, 1}}) {
+        const Mesh mesh = grid_mesh(48, 36, cols, rows);
+        const Hierarchy h = build_hierarchy(mesh, {.levels = levels});
+        const Projection fit = project_image(image, h, mesh.vertices, {.max_iterations = 50});
+        EXPECT_LE(fit.iterations, 50);
+        EXPECT_TRUE(all_finite(fit.planes));
+        const double p = round_trip(image, h, mesh, sample_image(image, h, mesh.vertices));
+        EXPECT_GE(round_trip(image, h, mesh, fit.planes), p - 0.01)
+            << cols << "x" << rows << " J=" << levels;
+    }
+}
+
+TEST(Project, bad_options_throw) {
+    const Image image = samples::scene_image(32, 24);
+    const Mesh mesh = grid_mesh(32, 24, 2, 2);
+    const Hierarchy h = build_hierarchy(mesh, {.levels = 3});
+    EXPECT_THROW(project_image(image, h, mesh.vertices, {.level = 4}), Error);
+    EXPECT_THROW(project_image(image, h, mesh.vertices, {.anchor_weight = 0}), Error);
+    EXPECT_THROW(project_image(image, h, mesh.vertices, {.smoothness = -1}), Error);
+    EXPECT_THROW(project_image(image, h, mesh.vertices, {.max_iterations = 1001}), Error);
+    EXPECT_THROW(project_image(image, h, mesh.vertices,
+                               {.tolerance = std::numeric_limits<double>::quiet_NaN()}),
+                 Error);
+    const std::vector<float> short_plane(10);
+    const std::span<const float> anchor[] = {short_plane, short_plane, short_plane};
+    EXPECT_THROW(project_image(image, h, mesh.vertices, {.anchor = anchor}), Error);
+    EXPECT_THROW(sampling_from_name("exact"), Error);
+    EXPECT_EQ(sampling_from_name(sampling_name(Sampling::fit)), Sampling::fit);
+}
+
+}  // namespace
+}  // namespace tesswave
