@@ -96,8 +96,8 @@ GridTransformOptions CodingDomain::grid_options() const {
     return {.wavelet = wavelet_of(shape_.transform), .levels = shape_.levels};
 }
 
-void CodingDomain::sample_into(const Image& image, std::span<const Vec2> vertices,
-                               Planes& out) const {
+void CodingDomain::sample_into(const Image& image, std::span<const Vec2> vertices, Planes& out,
+                               Sampling sampling, const ProjectOptions& projection) const {
     if (image.width != shape_.width || image.height != shape_.height ||
         image.channels() != shape_.channels) {
         throw Error(str("image is ", image.width, "x", image.height, " with ", image.channels(),
@@ -111,9 +111,13 @@ void CodingDomain::sample_into(const Image& image, std::span<const Vec2> vertice
     }
     for (auto& plane : out) plane.resize(size());
     if (pixel_of_sample_.empty()) {
-        sample_image_into(image, *hierarchy_,
-                          vertices.empty() ? std::span<const Vec2>(shape_.mesh.vertices) : vertices,
-                          spans(out));
+        const std::span<const Vec2> at =
+            vertices.empty() ? std::span<const Vec2>(shape_.mesh.vertices) : vertices;
+        if (sampling == Sampling::fit) {
+            out = project_image(image, *hierarchy_, at, projection).planes;
+        } else {
+            sample_image_into(image, *hierarchy_, at, spans(out));
+        }
         return;
     }
     for (int c = 0; c < shape_.channels; ++c) {
@@ -145,8 +149,9 @@ void CodingDomain::to_image(const Planes& samples, std::span<const Vec2> vertice
     }
 }
 
-void CodingDomain::analyze(const Image& image, std::span<const Vec2> vertices, Planes& out) const {
-    sample_into(image, vertices, out);
+void CodingDomain::analyze(const Image& image, std::span<const Vec2> vertices, Planes& out,
+                           Sampling sampling, const ProjectOptions& projection) const {
+    sample_into(image, vertices, out, sampling, projection);
     if (shape_.colour == TwiColour::ycbcr) ycbcr_forward(out[0], out[1], out[2]);
     if (hierarchy_) {
         forward_transform(*hierarchy_, spans(out));
@@ -155,9 +160,10 @@ void CodingDomain::analyze(const Image& image, std::span<const Vec2> vertices, P
     }
 }
 
-Planes CodingDomain::analyze(const Image& image) const {
+Planes CodingDomain::analyze(const Image& image, Sampling sampling,
+                             const ProjectOptions& projection) const {
     Planes x;
-    analyze(image, {}, x);
+    analyze(image, {}, x, sampling, projection);
     return x;
 }
 

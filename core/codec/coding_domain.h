@@ -19,6 +19,7 @@
 #include "core/math/fixed_grid.h"
 #include "core/math/hierarchy.h"
 #include "core/math/image.h"
+#include "core/math/project.h"
 #include "core/math/render.h"
 
 namespace tesswave {
@@ -62,10 +63,13 @@ class CodingDomain {
     // Planes of the domain's shape, all zero.
     Planes zeros() const;
 
-    // Lossy: coefficients of `image` sampled at T0 vertex positions `vertices` (mesh path; empty:
-    // the rest mesh; ignored on the fixed grid). `out` is resized as needed.
-    void analyze(const Image& image, std::span<const Vec2> vertices, Planes& out) const;
-    Planes analyze(const Image& image) const;
+    // Lossy: coefficients of `image` put on the mesh at T0 vertex positions `vertices` (mesh
+    // path; empty: the rest mesh; ignored on the fixed grid) by `sampling` (ignored where the
+    // samples are pixels). `out` is resized as needed.
+    void analyze(const Image& image, std::span<const Vec2> vertices, Planes& out,
+                 Sampling sampling = Sampling::point, const ProjectOptions& projection = {}) const;
+    Planes analyze(const Image& image, Sampling sampling = Sampling::point,
+                   const ProjectOptions& projection = {}) const;
     // The image of `coefficients` (consumed) on those vertex positions.
     void synthesize(Planes coefficients, std::span<const Vec2> vertices, Image& out) const;
     Image synthesize(Planes coefficients) const;
@@ -79,7 +83,9 @@ class CodingDomain {
     IntPlanes samples_int(const Image& image) const;
 
   private:
-    void sample_into(const Image& image, std::span<const Vec2> vertices, Planes& out) const;
+    void sample_into(const Image& image, std::span<const Vec2> vertices, Planes& out,
+                     Sampling sampling = Sampling::point,
+                     const ProjectOptions& projection = {}) const;
     void to_image(const Planes& samples, std::span<const Vec2> vertices, Image& out) const;
     GridTransformOptions grid_options() const;
 
