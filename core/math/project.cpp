@@ -20,8 +20,11 @@ struct NormalMatrix {
     int32_t side = 0, grid_size = 0;
     size_t quads = 0;
     const int32_t* grid = nullptr;  // the plan's sample ids, grid_size a quad
-    std::vector<float> stencil;
+    std::vector<float> stencil;     // per quad, 9 planes of grid_size values (entry-major)
     std::vector<double> diagonal;
+
+    float* entry(size_t q, int e) { return stencil.data() + (q * 9 + e) * grid_size; }
+    const float* entry(size_t q, int e) const { return stencil.data() + (q * 9 + e) * grid_size; }
     double alpha = 0;  // alpha u
 };
 
@@ -35,7 +38,6 @@ void add_data_term(const RenderPlan& plan, const Image& image, NormalMatrix& A, 
     const int32_t offset[4] = {0, 1, A.side, A.side + 1};
     size_t i = 0;
     for (size_t q = 0; q < A.quads; ++q) {
-        float* st = A.stencil.data() + q * A.grid_size * 9;
         const int32_t* ids = A.grid + q * A.grid_size;
         for (int32_t run = plan.quad_runs[q]; run < plan.quad_runs[q + 1]; ++run) {
             const int32_t start = plan.run_start[run], length = plan.run_length[run];
@@ -48,9 +50,10 @@ void add_data_term(const RenderPlan& plan, const Image& image, NormalMatrix& A, 
                 const float w[4] = {(1 - s) * (1 - t), s * (1 - t), (1 - s) * t, s * t};
                 const int32_t cell = plan.cell[i];
                 for (int a = 0; a < 4; ++a) {
-                    float* row = st + (cell + offset[a]) * 9;
+                    const int32_t node = cell + offset[a];
                     for (int b = 0; b < 4; ++b) {
-                        row[stencil_entry(dr[b] - dr[a], dc[b] - dc[a])] += w[a] * w[b];
+                        A.entry(q, stencil_entry(dr[b] - dr[a], dc[b] - dc[a]))[node] +=
+                            w[a] * w[b];
                     }
                     const int32_t id = ids[cell + offset[a]];
                     for (int c = 0; c < channels; ++c) rhs[c][id] += w[a] * image.planes[c][px];
@@ -64,54 +67,59 @@ void add_data_term(const RenderPlan& plan, const Image& image, NormalMatrix& A, 
 void add_smoothness(NormalMatrix& A, float weight) {
     if (weight == 0) return;
     for (size_t q = 0; q < A.quads; ++q) {
-        float* st = A.stencil.data() + q * A.grid_size * 9;
+        float* centre = A.entry(q, stencil_entry(0, 0));
+        float* right = A.entry(q, stencil_entry(0, 1));
+        float* left = A.entry(q, stencil_entry(0, -1));
+        float* down = A.entry(q, stencil_entry(1, 0));
+        float* up = A.entry(q, stencil_entry(-1, 0));
         for (int32_t r = 0; r < A.side; ++r) {
             for (int32_t c = 0; c < A.side; ++c) {
-                float* a = st + (r * A.side + c) * 9;
+                const int32_t a = r * A.side + c;
                 if (c + 1 < A.side) {
-                    float* b = a + 9;
-                    a[stencil_entry(0, 0)] += weight, b[stencil_entry(0, 0)] += weight;
-                    a[stencil_entry(0, 1)] -= weight, b[stencil_entry(0, -1)] -= weight;
+                    centre[a] += weight, centre[a + 1] += weight;
+                    right[a] -= weight, left[a + 1] -= weight;
                 }
                 if (r + 1 < A.side) {
-                    float* b = a + A.side * 9;
-                    a[stencil_entry(0, 0)] += weight, b[stencil_entry(0, 0)] += weight;
-                    a[stencil_entry(1, 0)] -= weight, b[stencil_entry(-1, 0)] -= weight;
+                    centre[a] += weight, centre[a + A.side] += weight;
+                    down[a] -= weight, up[a + A.side] -= weight;
                 }
             }
         }
     }
 }
 
-// y_c = A x_c for the channels c in `active`.
+// y_c = A x_c for the channels c in `active`: per quad, its grid of x gathered into a padded
+// buffer, the stencil applied row by row (entry-major, so the rows vectorize), the result added
+// back at the grid's sample ids.
 void multiply(const NormalMatrix& A, const Planes& x, Planes& y, const std::vector<int>& active) {
-    const int32_t P = A.side + 2, padded = P * P;  // a zero border, so that no read needs a test
-    std::vector<float> local(padded * active.size(), 0.0f);
+    const int32_t side = A.side, P = side + 2,
+                  padded = P * P;  // a zero border: no read needs a test
+    std::vector<float> local(padded, 0.0f), out(side);
     for (int c : active) {
         for (size_t k = 0; k < x[c].size(); ++k) y[c][k] = static_cast<float>(A.alpha) * x[c][k];
     }
+    const int32_t offset[9] = {-P - 1, -P, -P + 1, -1, 0, 1, P - 1, P, P + 1};
     for (size_t q = 0; q < A.quads; ++q) {
         const int32_t* ids = A.grid + q * A.grid_size;
-        for (size_t n = 0; n < active.size(); ++n) {
-            const float* xc = x[active[n]].data();
-            float* g = local.data() + n * padded;
-            for (int32_t r = 0; r < A.side; ++r) {
-                for (int32_t c = 0; c < A.side; ++c) {
-                    g[(r + 1) * P + c + 1] = xc[ids[r * A.side + c]];
-                }
+        for (int ch : active) {
+            const float* __restrict xc = x[ch].data();
+            float* __restrict yc = y[ch].data();
+            for (int32_t r = 0; r < side; ++r) {
+                float* g = local.data() + (r + 1) * P + 1;
+                const int32_t* row_ids = ids + r * side;
+                for (int32_t c = 0; c < side; ++c) g[c] = xc[row_ids[c]];
             }
-        }
-        const float* st = A.stencil.data() + q * A.grid_size * 9;
-        for (int32_t r = 0; r < A.side; ++r) {
-            for (int32_t c = 0; c < A.side; ++c, st += 9) {
-                const int32_t centre = (r + 1) * P + c + 1, id = ids[r * A.side + c];
-                for (size_t n = 0; n < active.size(); ++n) {
-                    const float* g = local.data() + n * padded + centre;
-                    const float v = st[0] * g[-P - 1] + st[1] * g[-P] + st[2] * g[-P + 1] +
-                                    st[3] * g[-1] + st[4] * g[0] + st[5] * g[1] + st[6] * g[P - 1] +
-                                    st[7] * g[P] + st[8] * g[P + 1];
-                    y[active[n]][id] += v;
+            for (int32_t r = 0; r < side; ++r) {
+                const float* g = local.data() + (r + 1) * P + 1;
+                float* __restrict o = out.data();
+                for (int32_t c = 0; c < side; ++c) o[c] = 0.0f;
+                for (int e = 0; e < 9; ++e) {
+                    const float* __restrict st = A.entry(q, e) + r * side;
+                    const float* __restrict ge = g + offset[e];
+                    for (int32_t c = 0; c < side; ++c) o[c] += st[c] * ge[c];
                 }
+                const int32_t* row_ids = ids + r * side;
+                for (int32_t c = 0; c < side; ++c) yc[row_ids[c]] += o[c];
             }
         }
     }
@@ -178,7 +186,7 @@ Projection project_image(const Image& image, const Hierarchy& h,
     A.grid_size = A.side * A.side;
     A.quads = plan.quad_runs.size() - 1;
     A.grid = plan.grid.data();
-    A.stencil.assign(A.quads * A.grid_size * 9, 0.0f);
+    A.stencil.assign(A.quads * 9 * A.grid_size, 0.0f);
     const double unit = static_cast<double>(image.width) * image.height / samples;
     A.alpha = o.anchor_weight * unit;
     Planes b(channels, std::vector<float>(samples, 0.0f));
@@ -187,31 +195,34 @@ Projection project_image(const Image& image, const Hierarchy& h,
     A.diagonal.assign(samples, A.alpha);
     for (size_t q = 0; q < A.quads; ++q) {
         for (int32_t k = 0; k < A.grid_size; ++k) {
-            A.diagonal[A.grid[q * A.grid_size + k]] +=
-                A.stencil[(q * A.grid_size + k) * 9 + stencil_entry(0, 0)];
+            A.diagonal[A.grid[q * A.grid_size + k]] += A.entry(q, stencil_entry(0, 0))[k];
         }
     }
     for (int c = 0; c < channels; ++c) {
         for (size_t k = 0; k < samples; ++k) b[c][k] += static_cast<float>(A.alpha) * anchor[c][k];
     }
 
-    // Preconditioned conjugate gradients, all channels through one pass over the stencils.
+    // Preconditioned conjugate gradients, all channels through one pass over the stencils. The
+    // preconditioned residual z = r / diagonal is never stored: r.z and p = z + beta p read r.
+    std::vector<float> inverse(samples);
+    for (size_t k = 0; k < samples; ++k) inverse[k] = static_cast<float>(1.0 / A.diagonal[k]);
     Planes& x = result.planes;
-    Planes r(channels, std::vector<float>(samples)), z = r, p = r, Ap = r;
+    Planes r(channels, std::vector<float>(samples)), p = r, Ap = r;
     std::vector<int> all(channels);
     for (int c = 0; c < channels; ++c) all[c] = c;
     multiply(A, x, Ap, all);
     std::vector<double> rz(channels), norm_b(channels);
     std::vector<int> active;
     for (int c = 0; c < channels; ++c) {
+        double rr = 0;
         for (size_t k = 0; k < samples; ++k) {
             r[c][k] = b[c][k] - Ap[c][k];
-            z[c][k] = static_cast<float>(r[c][k] / A.diagonal[k]);
+            p[c][k] = r[c][k] * inverse[k];
+            rz[c] += double{r[c][k]} * p[c][k];
+            rr += double{r[c][k]} * r[c][k];
         }
-        p[c] = z[c];
-        rz[c] = dot(r[c], z[c]);
         norm_b[c] = std::sqrt(dot(b[c], b[c]));
-        const double relative = norm_b[c] > 0 ? std::sqrt(dot(r[c], r[c])) / norm_b[c] : 0.0;
+        const double relative = norm_b[c] > 0 ? std::sqrt(rr) / norm_b[c] : 0.0;
         result.residual = std::max(result.residual, relative);
         if (relative > o.tolerance) active.push_back(c);
     }
@@ -224,16 +235,21 @@ Projection project_image(const Image& image, const Hierarchy& h,
             const double pAp = dot(p[c], Ap[c]);
             if (!(pAp > 0)) continue;  // converged to rounding
             const float step = static_cast<float>(rz[c] / pAp);
+            float* __restrict xc = x[c].data();
+            float* __restrict rc = r[c].data();
+            float* __restrict pc = p[c].data();
+            const float* __restrict apc = Ap[c].data();
+            double rz_next = 0, rr = 0;
             for (size_t k = 0; k < samples; ++k) {
-                x[c][k] += step * p[c][k];
-                r[c][k] -= step * Ap[c][k];
-                z[c][k] = static_cast<float>(r[c][k] / A.diagonal[k]);
+                xc[k] += step * pc[k];
+                rc[k] -= step * apc[k];
+                rz_next += double{rc[k]} * (rc[k] * inverse[k]);
+                rr += double{rc[k]} * rc[k];
             }
-            const double rz_next = dot(r[c], z[c]);
             const float beta = static_cast<float>(rz_next / rz[c]);
             rz[c] = rz_next;
-            for (size_t k = 0; k < samples; ++k) p[c][k] = z[c][k] + beta * p[c][k];
-            const double relative = std::sqrt(dot(r[c], r[c])) / norm_b[c];
+            for (size_t k = 0; k < samples; ++k) pc[k] = rc[k] * inverse[k] + beta * pc[k];
+            const double relative = std::sqrt(rr) / norm_b[c];
             result.residual = std::max(result.residual, relative);
             if (relative > o.tolerance) still.push_back(c);
         }
