@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <sstream>
 
+#include "core/io/file_io.h"
 #include "core/io/image_io.h"
 #include "core/io/mesh_io.h"
 #include "core/math/error.h"
@@ -18,22 +19,34 @@
 
 namespace tesswave::cli {
 
+namespace {
+
+// An input inside the folder `dir` (through symlinks too): a folder output could replace it.
+void refuse_inputs_inside(const std::string& dir, const std::vector<std::string>& inputs) {
+    namespace fs = std::filesystem;
+    std::error_code ec;
+    const fs::path folder = fs::weakly_canonical(dir, ec);
+    if (ec || folder.empty()) return;
+    for (const auto& in : inputs) {
+        if (in.empty() || !fs::exists(in, ec)) continue;
+        const fs::path file = fs::canonical(in, ec);
+        if (ec) continue;
+        const auto [end, _] = std::mismatch(folder.begin(), folder.end(), file.begin(), file.end());
+        if (end == folder.end()) throw Error(dir + ": output folder holds the input " + in);
+    }
+}
+
+}  // namespace
+
 void check_output(const std::string& path, bool overwrite, const std::vector<std::string>& inputs) {
     namespace fs = std::filesystem;
     std::error_code ec;
     for (const auto& in : inputs) {
         if (in.empty() || !fs::exists(in, ec)) continue;
         if (fs::equivalent(in, path, ec)) throw Error(path + ": output would overwrite an input");
-        // A folder output (PNG frames) replaces the whole folder: no input may live inside it.
-        if (fs::is_directory(path, ec)) {
-            const fs::path folder = fs::canonical(path, ec), file = fs::canonical(in, ec);
-            const auto [end, _] =
-                std::mismatch(folder.begin(), folder.end(), file.begin(), file.end());
-            if (!folder.empty() && end == folder.end()) {
-                throw Error(path + ": output folder holds the input " + in);
-            }
-        }
     }
+    // A folder output (PNG frames) replaces the whole folder: no input may live inside it.
+    if (fs::is_directory(path, ec)) refuse_inputs_inside(path, inputs);
     if (fs::exists(path, ec) && !overwrite) {
         throw Error(path + ": already exists (use -y to overwrite)");
     }
@@ -43,9 +56,10 @@ void check_output(const std::string& path, bool overwrite, const std::vector<std
     }
 }
 
-void check_folder(const std::string& dir, bool overwrite) {
+void check_folder(const std::string& dir, bool overwrite, const std::vector<std::string>& inputs) {
     namespace fs = std::filesystem;
     std::error_code ec;
+    refuse_inputs_inside(dir, inputs);
     if (fs::exists(dir, ec) && !fs::is_directory(dir, ec)) {
         throw Error(dir + ": exists and is not a folder");
     }
@@ -62,12 +76,10 @@ void check_folder(const std::string& dir, bool overwrite) {
     }
 }
 
-void prepare_folder(const std::string& dir, bool overwrite) {
-    namespace fs = std::filesystem;
-    check_folder(dir, overwrite);
-    std::error_code ec;
-    fs::create_directories(dir, ec);
-    if (ec) throw Error(str(dir, ": cannot create folder (", ec.message(), ")"));
+void prepare_folder(const std::string& dir, bool overwrite,
+                    const std::vector<std::string>& inputs) {
+    check_folder(dir, overwrite, inputs);
+    create_folders(dir);
 }
 
 Verbosity& verbosity() {

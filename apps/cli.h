@@ -19,12 +19,16 @@ void check_output(const std::string& path, bool overwrite,
 // "mesh", "grid 5/3" or "grid 9/7", as reports print a transform.
 const char* transform_name(TwiTransform t);
 
-// Checks an output folder without creating it (call before any work, create when writing).
-void check_folder(const std::string& dir, bool overwrite);
+// Checks an output folder without creating it (call before any work, create when writing):
+// refuses one that holds any of `inputs` (symlinks resolved), whose files it could replace.
+void check_folder(const std::string& dir, bool overwrite,
+                  const std::vector<std::string>& inputs = {});
 
 // An output folder: created if missing; an existing non-empty one needs -y (its files are then
-// overwritten one by one, each atomically). Refuses a path that is a file.
-void prepare_folder(const std::string& dir, bool overwrite);
+// overwritten one by one, each atomically). Refuses a path that is a file, and one that holds
+// any of `inputs`.
+void prepare_folder(const std::string& dir, bool overwrite,
+                    const std::vector<std::string>& inputs = {});
 
 // Seconds since t on the steady clock (whole-command and per-stage timings in reports).
 inline double seconds_since(std::chrono::steady_clock::time_point t) {

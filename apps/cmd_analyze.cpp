@@ -85,7 +85,7 @@ Mesh analysis_mesh(const AnalyzeRequest& request, const Image& image, std::strin
 AnalysisResult run_analyze(const AnalyzeRequest& request) {
     // Inputs and options are checked, and the work done, before the folder is created: a failed
     // run leaves nothing behind.
-    check_folder(request.output, request.overwrite);
+    check_folder(request.output, request.overwrite, {request.image, request.mesh});
     const Image image = read_image(request.image);
     AnalyzeRequest req = request;
     const Mesh mesh = analysis_mesh(request, image, req.mesh_description);
@@ -100,7 +100,7 @@ AnalysisResult run_analyze(const AnalyzeRequest& request) {
     options.progress = [&](double done, const char* stage) { bar.update(done, stage); };
     const AnalysisResult r = analyze_image(image, mesh, options);
 
-    prepare_folder(request.output, request.overwrite);
+    prepare_folder(request.output, request.overwrite, {request.image, request.mesh});
     const fs::path dir(request.output);
     write_image(r.resampled, (dir / "resampled.png").string());
     write_image(r.coefficients, (dir / "coefficients.png").string());

@@ -187,7 +187,7 @@ std::string summary(const std::vector<Row>& avg, const std::vector<Row>& lossles
 
 void run_compare(const CompareArgs& a) {
     const std::vector<double>& rates = a.bpp;
-    check_folder(a.output, a.overwrite);
+    check_folder(a.output, a.overwrite, a.images);
     std::vector<Image> images;
     for (const std::string& path : a.images) {
         Image image = read_image(path);
@@ -196,7 +196,7 @@ void run_compare(const CompareArgs& a) {
         }
         images.push_back(std::move(image));
     }
-    prepare_folder(a.output, a.overwrite);
+    prepare_folder(a.output, a.overwrite, a.images);
     const fs::path dir(a.output);
     std::vector<Row> rows, lossless, resample;
     ProgressBar bar;

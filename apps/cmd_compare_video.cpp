@@ -256,7 +256,7 @@ void compare_at_rate(Session& s, const ClipInfo& clip, const Image& original, co
 std::vector<VideoRow> run_all(Session& s, const std::vector<Rate>& rates,
                               std::vector<ClipInfo>& clips) {
     const CompareVideoArgs& a = s.args;
-    check_folder(a.output, a.overwrite);
+    check_folder(a.output, a.overwrite, a.clips);
     std::vector<Image> originals;
     for (const std::string& path : a.clips) {
         originals.emplace_back();
@@ -264,7 +264,7 @@ std::vector<VideoRow> run_all(Session& s, const std::vector<Rate>& rates,
         s.total += clips.back().pixels() * static_cast<double>(rates.size() * s.methods.size());
     }
     make_unique(clips);
-    prepare_folder(a.output, a.overwrite);
+    prepare_folder(a.output, a.overwrite, a.clips);
     const ScratchFolder scratch;
     s.scratch = scratch.path();
     for (size_t i = 0; i < clips.size(); ++i) {

@@ -106,8 +106,8 @@ struct EvalArgs {
 
 void run_eval(const EvalArgs& a) {
     const std::vector<Sequence> seqs = sequences(a.dirs);
-    check_folder(a.output, a.overwrite);
-    prepare_folder(a.output, a.overwrite);
+    check_folder(a.output, a.overwrite, a.dirs);
+    prepare_folder(a.output, a.overwrite, a.dirs);
     const fs::path dir(a.output);
     nlohmann::json report = {{"sequences", nlohmann::json::array()}};
     std::map<std::string, std::pair<double, double>> sums;

@@ -72,7 +72,7 @@ void write_debug_frame(const std::string& dir, int64_t number, const Image& fram
 
 void run_encode(const EncodeArgs& a) {
     check_output(a.output, a.overwrite, {a.input});
-    if (!a.debug_dir.empty()) check_folder(a.debug_dir, a.overwrite);
+    if (!a.debug_dir.empty()) check_folder(a.debug_dir, a.overwrite, {a.input});
     if (a.motion != "tracked" && a.motion != "none") {
         throw Error(str("--motion: expected tracked or none, got \"", a.motion, "\""));
     }
@@ -110,7 +110,7 @@ void run_encode(const EncodeArgs& a) {
     } catch (const Error& e) {
         throw Error(str(a.input, ": ", e.what()));
     }
-    if (!a.debug_dir.empty()) prepare_folder(a.debug_dir, a.overwrite);
+    if (!a.debug_dir.empty()) prepare_folder(a.debug_dir, a.overwrite, {a.input});
     nlohmann::json frames = nlohmann::json::array();
     Image frame;
     double psnr_sum = 0;

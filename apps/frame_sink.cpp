@@ -5,6 +5,7 @@
 #include <CLI/CLI.hpp>
 #include <filesystem>
 
+#include "core/io/file_io.h"
 #include "core/io/image_io.h"
 #include "core/math/error.h"
 #include "core/math/strings.h"
@@ -59,8 +60,11 @@ FrameSink::FrameSink(const std::string& path, int width, int height, double fps)
                   .string();
     std::error_code ec;
     fs::remove_all(folder_, ec);
-    fs::create_directories(folder_, ec);
-    if (ec) throw Error(str(path, ": cannot create a folder beside it (", ec.message(), ")"));
+    try {
+        create_folders(folder_);  // noted, so that an interrupted run removes it
+    } catch (const Error& e) {
+        throw Error(str(path, ": cannot create a folder beside it (", e.what(), ")"));
+    }
 }
 
 FrameSink::~FrameSink() {

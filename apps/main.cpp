@@ -1,5 +1,8 @@
 // The tesswave command: one subcommand per job, thin over the libraries. Errors become one line
 // on stderr and a non-zero exit code.
+#include <signal.h>
+#include <unistd.h>
+
 #include <CLI/CLI.hpp>
 #include <cstdio>
 #include <exception>
@@ -7,9 +10,32 @@
 #include <string>
 
 #include "cli.h"
+#include "core/io/file_io.h"
 #include "core/math/error.h"
 
 namespace {
+
+// SIGINT and SIGTERM: remove what this run wrote (temporaries, committed outputs, folders it
+// made), say so in one line and exit 130 or 143. A second signal during that exits at once.
+extern "C" void on_interrupt(int signal_number) {
+    static volatile sig_atomic_t handling = 0;
+    if (handling) ::_exit(128 + signal_number);
+    handling = 1;
+    tesswave::remove_run_outputs();
+    static const char message[] = "\ntesswave: interrupted; removed the partial outputs\n";
+    const ssize_t ignored = ::write(2, message, sizeof message - 1);
+    (void)ignored;
+    ::_exit(128 + signal_number);
+}
+
+void install_interrupt_handlers() {
+    struct sigaction action {};
+    action.sa_handler = on_interrupt;
+    sigemptyset(&action.sa_mask);
+    action.sa_flags = SA_NODEFER;  // a second signal re-enters and exits at once
+    sigaction(SIGINT, &action, nullptr);
+    sigaction(SIGTERM, &action, nullptr);
+}
 
 // Messages from libraries (OpenImageIO, libpng) can span lines; the command prints one line.
 std::string one_line(std::string text) {
@@ -66,8 +92,10 @@ int main(int argc, char** argv) {
     tesswave::cli::add_info_command(app);
     tesswave::cli::add_samples_command(app);
     tesswave::cli::add_demo_command(app);
+    install_interrupt_handlers();
     try {
         app.parse(argc, argv);
+        tesswave::keep_run_outputs();  // complete: what the run wrote stays
     } catch (const CLI::CallForHelp& e) {
         return app.exit(e);
     } catch (const CLI::CallForAllHelp& e) {

@@ -1,12 +1,16 @@
 #include "core/io/file_io.h"
 
+#include <pthread.h>
+#include <signal.h>
 #include <unistd.h>
 
 #include <cerrno>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <vector>
 
 #include "core/math/error.h"
 #include "core/math/strings.h"
@@ -31,12 +35,79 @@ std::string read_file(const std::string& path, int64_t max_bytes) {
     return bytes;
 }
 
+namespace {
+
+struct Note {
+    char* path;  // strdup'd
+    bool folder;
+};
+
+std::vector<Note>& notes() {
+    static std::vector<Note> list;
+    return list;
+}
+
+// Runs `change` with SIGINT and SIGTERM blocked, so that the handler never sees a half-made note.
+template <class F>
+void with_signals_blocked(F&& change) {
+    sigset_t block, old;
+    sigemptyset(&block);
+    sigaddset(&block, SIGINT);
+    sigaddset(&block, SIGTERM);
+    pthread_sigmask(SIG_BLOCK, &block, &old);
+    change();
+    pthread_sigmask(SIG_SETMASK, &old, nullptr);
+}
+
+void note(const std::string& path, bool folder) {
+    with_signals_blocked([&] {
+        if (char* copy = ::strdup(path.c_str())) notes().push_back({copy, folder});
+    });
+}
+
+}  // namespace
+
+void keep_run_outputs() {
+    with_signals_blocked([] {
+        for (Note& n : notes()) std::free(n.path);
+        notes().clear();
+    });
+}
+
+void remove_run_outputs() noexcept {
+    const std::vector<Note>& list = notes();
+    for (size_t i = list.size(); i-- > 0;) {
+        if (!list[i].folder) ::unlink(list[i].path);
+    }
+    for (size_t i = list.size(); i-- > 0;) {
+        if (list[i].folder) ::rmdir(list[i].path);
+    }
+}
+
+void create_folders(const std::string& dir) {
+    namespace fs = std::filesystem;
+    std::vector<fs::path> missing;
+    std::error_code ec;
+    for (fs::path p = fs::absolute(dir, ec); !p.empty() && !fs::exists(p, ec);
+         p = p.parent_path()) {
+        missing.push_back(p);
+        if (p == p.parent_path()) break;
+    }
+    for (size_t i = missing.size(); i-- > 0;) {
+        fs::create_directory(missing[i], ec);
+        if (ec) throw Error(str(dir, ": cannot create folder (", ec.message(), ")"));
+        note(missing[i].string(), true);
+    }
+}
+
 std::string temporary_name(const std::string& path) {
     // Hidden, beside the target, and with its extension: image writers choose the format by it.
     const std::filesystem::path p(path);
     const std::string name =
         str(".", p.stem().string(), ".tmp-", ::getpid(), p.extension().string());
-    return (p.parent_path() / name).string();
+    const std::string temporary = (p.parent_path() / name).string();
+    note(temporary, false);
+    return temporary;
 }
 
 void commit_temporary(const std::string& temporary, const std::string& path) {
@@ -45,6 +116,7 @@ void commit_temporary(const std::string& temporary, const std::string& path) {
         discard_temporary(temporary);
         throw Error(str(path, ": cannot write (", why, ")"));
     }
+    note(path, false);
 }
 
 void discard_temporary(const std::string& temporary) noexcept { std::remove(temporary.c_str()); }

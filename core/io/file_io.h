@@ -21,4 +21,15 @@ std::string temporary_name(const std::string& path);
 void commit_temporary(const std::string& temporary, const std::string& path);
 void discard_temporary(const std::string& temporary) noexcept;
 
+// Creates `dir` and any missing parents, noting each folder it creates (below).
+void create_folders(const std::string& dir);
+
+// What an interrupted run leaves behind. Every temporary name handed out, every file committed
+// and every folder created since the last keep_run_outputs() is noted, so that a signal handler
+// can remove them with remove_run_outputs(): files first, then the folders, newest first (a
+// folder that still holds other files stays). remove_run_outputs is async-signal-safe (unlink
+// and rmdir only); the notes are changed with SIGINT and SIGTERM blocked.
+void keep_run_outputs();
+void remove_run_outputs() noexcept;
+
 }  // namespace tesswave

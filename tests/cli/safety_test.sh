@@ -1,0 +1,82 @@
+# Interrupted runs and protected inputs (the reliability issue): SIGINT and SIGTERM remove what the
+# run wrote and exit 130 and 143; a folder output never replaces a file the command reads.
+source "$(dirname "$0")/lib.sh"
+
+"$tesswave" samples -o "$dir/s" >/dev/null
+
+# Waits until `pattern` matches at least `count` files under `where` (the job is under way), at
+# most about 60 s; returns 1 if it never does (the job finished or failed first).
+wait_for_files() {
+    local where=$1 pattern=$2 count=$3
+    for _ in $(seq 1 600); do
+        (($(find "$where" -name "$pattern" 2>/dev/null | wc -l) >= count)) && return 0
+        sleep 0.1
+    done
+    return 1
+}
+
+# interrupt SIGNAL CODE DESCRIPTION OUTPUT_FOLDER PATTERN COMMAND...: starts the command, sends the
+# signal once PATTERN files exist below OUTPUT_FOLDER, and expects exit CODE, one message line
+# and nothing left in OUTPUT_FOLDER (which the test made empty).
+interrupt() {
+    local signal=$1 code=$2 what=$3 folder=$4 pattern=$5 status=0
+    shift 5
+    mkdir -p "$folder"
+    "$@" >"$dir/out.txt" 2>"$dir/err.txt" &
+    local pid=$!
+    if ! wait_for_files "$folder" "$pattern" 1; then
+        wait "$pid"
+        fail "$what: the job ended before it wrote anything ($(tail -1 "$dir/err.txt"))"
+        return
+    fi
+    kill "-$signal" "$pid"
+    wait "$pid" || status=$?
+    local left
+    left=$(find "$folder" -mindepth 1 | head -3)
+    if ((status == code)) && [[ -z $left ]] && grep -q "interrupted" "$dir/err.txt"; then
+        pass "$what: exit $status, nothing left"
+    else
+        fail "$what: exit $status (want $code), left: ${left:-nothing}, $(tail -1 "$dir/err.txt")"
+    fi
+}
+
+interrupt INT 130 "morph to a folder, Ctrl-C" "$dir/m" "*.png" \
+    "$tesswave" morph "$dir/s/pair_a.png" "$dir/s/pair_b.png" -o "$dir/m/frames" \
+    --frames 2000 --size 320x240
+interrupt TERM 143 "encode, SIGTERM" "$dir/e" "*.twv" \
+    "$tesswave" encode "$dir/s/clip.mkv" -o "$dir/e/clip.twv" --frames 100000 --sampling fit
+
+# A folder output that holds an input is refused before any work, and the input is untouched.
+mkdir -p "$dir/d"
+cp "$dir/s/scene.png" "$dir/d/resampled.png"
+sum=$(md5sum <"$dir/d/resampled.png")
+status=0
+"$tesswave" analyze "$dir/d/resampled.png" -o "$dir/d" -y --keep 10 >/dev/null 2>"$dir/err.txt" ||
+    status=$?
+if ((status != 0)) && [[ $(md5sum <"$dir/d/resampled.png") == "$sum" ]] &&
+    [[ $(find "$dir/d" -mindepth 1 | wc -l) == 1 ]]; then
+    pass "analyze into the folder of its input refused: $(cat "$dir/err.txt")"
+else
+    fail "analyze into the folder of its input: exit $status, $(ls "$dir/d" | tr '\n' ' ')"
+fi
+# The same through a symlink to the folder.
+ln -s "$dir/d" "$dir/link"
+status=0
+"$tesswave" analyze "$dir/d/resampled.png" -o "$dir/link" -y --keep 10 >/dev/null 2>&1 || status=$?
+if ((status != 0)) && [[ $(md5sum <"$dir/d/resampled.png") == "$sum" ]]; then
+    pass "analyze into a symlink to the folder of its input refused"
+else
+    fail "analyze through a symlink: exit $status"
+fi
+# A hard link to the input inside the output folder: outputs replace names, never the file.
+mkdir -p "$dir/h"
+ln "$dir/d/resampled.png" "$dir/h/resampled.png"
+check "analyze next to a hard link of its input" \
+    "$tesswave" analyze "$dir/s/scene.png" -o "$dir/h" -y --keep 10
+if [[ $(md5sum <"$dir/d/resampled.png") == "$sum" ]]; then
+    pass "the hard-linked input is unchanged"
+else
+    fail "the hard-linked input changed"
+fi
+
+finish
