@@ -82,6 +82,21 @@ void prepare_folder(const std::string& dir, bool overwrite,
     create_folders(dir);
 }
 
+Image read_input(const std::string& path) {
+    ImageNotes notes;
+    Image image = read_image(path, {}, &notes);
+    if (notes.non_finite > 0) {
+        warn(str("warning: ", path, ": ", notes.non_finite,
+                 " values are NaN or infinite; they are read as 0"));
+    }
+    if (!notes.decoder.empty()) {
+        std::string why = notes.decoder;
+        std::replace(why.begin(), why.end(), '\n', ' ');
+        warn(str("warning: ", path, ": the image may be damaged (", why, ")"));
+    }
+    return image;
+}
+
 Verbosity& verbosity() {
     static Verbosity level = Verbosity::normal;
     return level;

@@ -30,6 +30,10 @@ void check_folder(const std::string& dir, bool overwrite,
 void prepare_folder(const std::string& dir, bool overwrite,
                     const std::vector<std::string>& inputs = {});
 
+// An input image, with a one-line warning for what reading dropped: non-finite values (read as
+// 0) and a decoder's complaint about a file it still read (a truncated JPEG).
+Image read_input(const std::string& path);
+
 // Seconds since t on the steady clock (whole-command and per-stage timings in reports).
 inline double seconds_since(std::chrono::steady_clock::time_point t) {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
@@ -79,6 +83,28 @@ Mesh mesh_for(const std::string& spec, const std::string& image_path, const Imag
 
 // --density has one range everywhere: samples per pixel in [0.01, 16].
 inline CLI::Range density_range() { return CLI::Range(0.01, 16.0); }
+
+// --max-pixels N on every decoder: accept images (and mesh samples) up to N whatever the file's
+// size; 0 keeps the default limits, which weigh a header's sizes against the file's bytes.
+inline CLI::Option* add_max_pixels_option(CLI::App* cmd, int64_t& value) {
+    return cmd
+        ->add_option("--max-pixels", value,
+                     "Decode images (and mesh samples) up to this many whatever the file's size "
+                     "(default: a small file may only claim a small image)")
+        ->check(CLI::Range(int64_t{1}, int64_t{1} << 32));
+}
+
+// The limits a --max-pixels value gives (0: the defaults).
+template <class Limits>
+Limits limits_for(int64_t max_pixels) {
+    Limits l;
+    if (max_pixels > 0) {
+        l.max_pixels = max_pixels;
+        l.free_pixels = max_pixels;
+        if constexpr (requires { l.free_samples; }) l.free_samples = max_pixels;
+    }
+    return l;
+}
 
 // --sampling point|fit, one meaning on every command that puts an image on a mesh.
 inline CLI::Option* add_sampling_option(CLI::App* cmd, std::string& value) {

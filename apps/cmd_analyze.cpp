@@ -86,7 +86,7 @@ AnalysisResult run_analyze(const AnalyzeRequest& request) {
     // Inputs and options are checked, and the work done, before the folder is created: a failed
     // run leaves nothing behind.
     check_folder(request.output, request.overwrite, {request.image, request.mesh});
-    const Image image = read_image(request.image);
+    const Image image = read_input(request.image);
     AnalyzeRequest req = request;
     const Mesh mesh = analysis_mesh(request, image, req.mesh_description);
     AnalysisOptions options;

@@ -58,7 +58,7 @@ void run_compress(CompressArgs a) {
     check_output(a.output, a.overwrite, {a.input});
     choose_lossless_mesh(a);
     const auto start = std::chrono::steady_clock::now();
-    const Image image = read_image(a.input);
+    const Image image = read_input(a.input);
     StillOptions o{.transform = parse_grid(a.grid), .lossless = a.lossless};
     const double pixels = double(image.width) * image.height;
     if (a.bpp > 0) o.max_bytes = static_cast<int64_t>(std::floor(a.bpp * pixels / 8));
@@ -120,7 +120,7 @@ void run_compress(CompressArgs a) {
 
 struct DecompressArgs {
     std::string input, output;
-    int64_t bytes = 0;
+    int64_t bytes = 0, max_pixels = 0;
     double fraction = 0;
     bool overwrite = false, json = false;
 };
@@ -129,7 +129,7 @@ void run_decompress(const DecompressArgs& a) {
     check_output(a.output, a.overwrite, {a.input});
     const std::string data = read_file(a.input);
     const std::span<const uint8_t> file(reinterpret_cast<const uint8_t*>(data.data()), data.size());
-    StillDecodeOptions o;
+    StillDecodeOptions o{.limits = limits_for<TwiLimits>(a.max_pixels)};
     if (a.bytes > 0) o.max_bytes = static_cast<size_t>(a.bytes);
     if (a.fraction > 0) o.max_bytes = static_cast<size_t>(std::ceil(a.fraction * data.size()));
     const Image image = decompress_image(file, a.input, o);
@@ -202,6 +202,7 @@ void add_codec_commands(CLI::App& app) {
     auto* fraction = cmd->add_option("--fraction", d->fraction, "Decode only this fraction")
                          ->check(CLI::Range(0.0, 1.0) & positive("a fraction"));
     bytes->excludes(fraction);
+    add_max_pixels_option(cmd, d->max_pixels);
     cmd->add_flag("-y,--overwrite", d->overwrite, "Overwrite the output");
     cmd->add_flag("--json", d->json, "Print the result as JSON");
     cmd->callback([d] { run_decompress(*d); });

@@ -190,7 +190,7 @@ void run_compare(const CompareArgs& a) {
     check_folder(a.output, a.overwrite, a.images);
     std::vector<Image> images;
     for (const std::string& path : a.images) {
-        Image image = read_image(path);
+        Image image = read_input(path);
         if (image.format != SampleFormat::u8) {
             throw Error(str(path, ": compare works on 8-bit images (JPEG 2000 peer is 8-bit)"));
         }

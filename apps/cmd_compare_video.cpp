@@ -86,6 +86,10 @@ std::vector<VideoMethod> parse_methods(const std::vector<std::string>& ids) {
 ClipInfo probe_clip(const std::string& path, const CompareVideoArgs& a,
                     const FrameSourceOptions& so, Image& shown) {
     FrameSource source(path, so);
+    if (source.trailing_bytes() > 0) {
+        warn(str("warning: ", path, ": the last ", source.trailing_bytes(),
+                 " bytes do not make a whole frame; they are not read"));
+    }
     // A folder's name is its stem ("aerial-6.2/" is aerial-6.2); a file's loses its extension.
     fs::path p = fs::path(path).lexically_normal();
     if (p.filename().empty()) p = p.parent_path();

@@ -189,7 +189,7 @@ void run_demo(const fs::path& dir, bool overwrite) {
         demo.written.push_back(f);
     }
     const std::string scene_path = (dir / "samples" / "scene.png").string();
-    const Image scene = read_image(scene_path);
+    const Image scene = read_input(scene_path);
 
     std::mt19937_64 rng(7);
     std::vector<Vec2> points;

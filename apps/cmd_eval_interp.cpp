@@ -118,8 +118,8 @@ void run_eval(const EvalArgs& a) {
     for (size_t s = 0; s < seqs.size(); ++s) {
         const Sequence& q = seqs[s];
         bar.update(double(s) / seqs.size(), q.name.c_str());
-        const Image f0 = rgb(read_image(q.f0)), f1 = rgb(read_image(q.f1)),
-                    truth = rgb(read_image(q.truth));
+        const Image f0 = rgb(read_input(q.f0)), f1 = rgb(read_input(q.f1)),
+                    truth = rgb(read_input(q.truth));
         if (f0.width != f1.width || f0.height != f1.height || truth.width != f0.width ||
             truth.height != f0.height) {
             throw Error(str(q.name, ": the three frames differ in size"));

@@ -15,11 +15,11 @@
 namespace tesswave::cli {
 namespace {
 
-nlohmann::json twi_info(const std::string& path) {
+nlohmann::json twi_info(const std::string& path, int64_t max_pixels) {
     const std::string bytes = read_file(path);
     const std::span<const uint8_t> file(reinterpret_cast<const uint8_t*>(bytes.data()),
                                         bytes.size());
-    const TwiHeader h = read_twi_header(file, path);
+    const TwiHeader h = read_twi_header(file, path, limits_for<TwiLimits>(max_pixels));
     nlohmann::json j = {{"file", path},
                         {"format", "twi"},
                         {"bytes", bytes.size()},
@@ -42,13 +42,12 @@ nlohmann::json twi_info(const std::string& path) {
     return j;
 }
 
-nlohmann::json twv_info(const std::string& path) {
-    video::VideoDecoder decoder(path);
+nlohmann::json twv_info(const std::string& path, int64_t max_pixels) {
+    video::VideoDecoder decoder(path, limits_for<video::TwvLimits>(max_pixels));
     const video::TwvHeader& h = decoder.header();
     int64_t frames = 0, intra_bytes = 0, delta_bytes = 0, motion_bytes = 0, intra = 0;
     std::map<std::string, int> domains;
-    Image unused;
-    while (decoder.read(unused, false)) {
+    while (decoder.skim()) {  // headers and chunks only: describing a file decodes nothing
         const video::TwvFrameInfo& f = decoder.info();
         ++frames;
         motion_bytes += f.motion_bytes;
@@ -65,6 +64,10 @@ nlohmann::json twv_info(const std::string& path) {
         } else {
             delta_bytes += f.bytes;
         }
+    }
+    if (frames == 0) {
+        throw Error(str(path, ": no decodable frame",
+                        decoder.damage().empty() ? "" : " (" + decoder.damage() + ")"));
     }
     const double seconds = frames / h.fps();
     nlohmann::json j = {
@@ -90,16 +93,16 @@ nlohmann::json twv_info(const std::string& path) {
     return j;
 }
 
-void run_info(const std::string& path, bool json) {
+void run_info(const std::string& path, bool json, int64_t max_pixels) {
     char magic[4] = {};
     std::ifstream in(path, std::ios::binary);
     if (!in) throw Error(str(path, ": cannot open"));
     in.read(magic, 4);
     nlohmann::json j;
     if (in && std::string(magic, 3) == "TWV") {
-        j = twv_info(path);
+        j = twv_info(path, max_pixels);
     } else if (in && std::string(magic, 3) == "TWI") {
-        j = twi_info(path);
+        j = twi_info(path, max_pixels);
     } else {
         throw Error(str(path, ": neither a .twi nor a .twv file"));
     }
@@ -126,10 +129,12 @@ void run_info(const std::string& path, bool json) {
 void add_info_command(CLI::App& app) {
     auto path = std::make_shared<std::string>();
     auto json = std::make_shared<bool>(false);
-    auto* cmd = app.add_subcommand("info", "Describe a .twi image or a .twv clip");
+    auto max_pixels = std::make_shared<int64_t>(0);
+    auto* cmd = app.add_subcommand("info", "Describe a .twi image or a .twv clip (headers only)");
     cmd->add_option("file", *path, "A .twi or .twv file")->required();
+    add_max_pixels_option(cmd, *max_pixels);
     cmd->add_flag("--json", *json, "Print as JSON");
-    cmd->callback([path, json] { run_info(*path, *json); });
+    cmd->callback([path, json, max_pixels] { run_info(*path, *json, *max_pixels); });
 }
 
 }  // namespace tesswave::cli

@@ -26,7 +26,7 @@ struct DomainArgs {
     std::string like;
     std::pair<double, double> resolve() const {
         if (!like.empty()) {
-            const Image image = read_image(like);
+            const Image image = read_input(like);
             return {image.width, image.height};
         }
         return parse_size(size, "--size");
@@ -250,7 +250,7 @@ void add_draw(CLI::App& mesh_cmd) {
         if (svg) {
             std::string href;
             if (!args->image.empty()) {
-                read_image(args->image);  // fail now, not in the viewer
+                read_input(args->image);  // fail now, not in the viewer
                 const auto dir = std::filesystem::absolute(args->out.path).parent_path();
                 href =
                     std::filesystem::relative(std::filesystem::absolute(args->image), dir).string();
@@ -259,7 +259,7 @@ void add_draw(CLI::App& mesh_cmd) {
         } else {
             std::unique_ptr<Image> background;
             if (!args->image.empty()) {
-                background = std::make_unique<Image>(read_image(args->image));
+                background = std::make_unique<Image>(read_input(args->image));
                 if (args->draw.scale == 0) args->draw.scale = background->width / mesh.width;
             }
             write_image(draw_mesh(mesh, args->draw, background.get()), args->out.path);

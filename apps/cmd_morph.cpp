@@ -108,7 +108,7 @@ void run_morph(const MorphArgs& a) {
     check_morph_output(a);
     if (a.frames < 1 && a.at < 0) throw CLI::ValidationError("--frames", "must be at least 1");
     check_output(a.output, a.overwrite, {a.a, a.b});
-    const Image ia = read_image(a.a), ib = read_image(a.b);
+    const Image ia = read_input(a.a), ib = read_input(a.b);
     nlohmann::json report = {{"a", a.a}, {"b", a.b}, {"output", a.output}};
     ProgressBar bar;
     // One bar over the whole job: matching, fitting, the morph's set-up, then the frames.
@@ -253,7 +253,7 @@ void add_morph_commands(CLI::App& app) {
         o.morph.schedule.kind = morph::parse_schedule_kind(b->schedule);
         if (!b->shape.empty())
             o.morph.schedule.shape = morph::parse_level_windows("0:" + b->shape, 1)[0];
-        const Image out = morph::inbetween(read_image(b->f0), read_image(b->f1), b->at, o);
+        const Image out = morph::inbetween(read_input(b->f0), read_input(b->f1), b->at, o);
         write_image(out, b->output);
         const double seconds = seconds_since(start);
         if (b->json) {

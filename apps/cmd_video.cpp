@@ -80,6 +80,10 @@ void run_encode(const EncodeArgs& a) {
     FrameSourceOptions so{.fps = a.fps, .pixel_format = a.pixel_format};
     if (!a.size.empty()) std::tie(so.width, so.height) = parse_cells(a.size, "--size");
     FrameSource source(a.input, so);
+    if (source.trailing_bytes() > 0) {
+        warn(str("warning: ", a.input, ": the last ", source.trailing_bytes(),
+                 " bytes do not make a whole frame; they are not read"));
+    }
     video::VideoEncodeOptions o{
         .transform = a.grid.empty()   ? TwiTransform::mesh
                      : a.grid == "97" ? TwiTransform::grid97
@@ -176,6 +180,7 @@ void run_encode(const EncodeArgs& a) {
 
 struct DecodeArgs {
     std::string input, output, frames;
+    int64_t max_pixels = 0;
     bool overwrite = false, json = false;
 };
 
@@ -211,7 +216,7 @@ void run_decode(const DecodeArgs& a) {
     check_output(a.output, a.overwrite, {a.input});
     const auto [first, last] = parse_range(a.frames);
     const auto start = std::chrono::steady_clock::now();
-    video::VideoDecoder decoder(a.input);
+    video::VideoDecoder decoder(a.input, limits_for<video::TwvLimits>(a.max_pixels));
     const video::TwvHeader& h = decoder.header();
     if (!decoder.seek(first)) {
         throw Error(decoder.damage().empty() ? str(a.input, ": the clip ends before frame ", first)
@@ -364,6 +369,7 @@ void add_video_commands(CLI::App& app) {
                     "Output: .mp4 (H.264), .mkv (lossless FFV1), .y4m, or a folder for PNG frames")
         ->required();
     dec->add_option("--range", d->frames, "Frames A:B (inclusive; A: or :B open), or one frame");
+    add_max_pixels_option(dec, d->max_pixels);
     dec->add_flag("-y,--overwrite", d->overwrite, "Overwrite the output");
     dec->add_flag("--json", d->json, "Print the result as JSON");
     dec->callback([d] { run_decode(*d); });

@@ -84,7 +84,7 @@ int snap_to_border(std::vector<Vec2>& points, double W, double H) {
 std::vector<std::array<int32_t, 3>> parse_triangles(const std::string& text, int points,
                                                     const std::string& name) {
     std::vector<std::array<int32_t, 3>> out;
-    std::istringstream in(text);
+    std::istringstream in{std::string(without_bom(text))};
     std::string line;
     for (int number = 1; std::getline(in, line); ++number) {
         const size_t hash = line.find('#');

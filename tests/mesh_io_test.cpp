@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include "core/math/error.h"
+#include "core/math/grid_mesh.h"
 #include "samples/sample_meshes.h"
 #include "test_meshes.h"
 
@@ -60,6 +61,19 @@ TEST(MeshIo, parse_errors_say_what_and_where) {
                              {.max_vertices = 1});
               }),
               "m: 2 vertices exceed the limit of 1");
+}
+
+// Files saved with a UTF-8 byte-order mark read as without it (they failed at line 1).
+TEST(MeshIo, a_utf8_byte_order_mark_is_skipped) {
+    const std::vector<Vec2> points = parse_points(
+        "\xEF\xBB\xBF"
+        "1 2\n3 4\n",
+        "bom.txt");
+    ASSERT_EQ(points.size(), 2u);
+    EXPECT_EQ(points[0].x, 1);
+    EXPECT_EQ(parse_points("\xEF\xBB\xBF[[1, 2]]", "bom.json").size(), 1u);
+    const std::string mesh = "\xEF\xBB\xBF" + mesh_to_json(grid_mesh(10, 10, 1, 1));
+    EXPECT_EQ(parse_mesh(mesh, "bom.json").num_vertices(), 4);
 }
 
 TEST(MeshIo, point_lists) {

@@ -52,6 +52,11 @@ TEST(MorphPair, bad_correspondences_are_refused_with_the_file_and_point) {
 
 TEST(MorphPair, triangle_files) {
     EXPECT_EQ(parse_triangles("# t\n0 1 2\n\n2 3 0 # x\n", 4, "t.txt").size(), 2u);
+    EXPECT_EQ(parse_triangles("\xEF\xBB\xBF"
+                              "0 1 2\n",
+                              4, "bom.txt")
+                  .size(),
+              1u);  // a UTF-8 BOM
     EXPECT_NE(error_of([] { parse_triangles("0 1\n", 4, "t.txt"); }).find("t.txt:1"),
               std::string::npos);
     EXPECT_NE(error_of([] { parse_triangles("0 1 9\n", 4, "t.txt"); }).find("outside"),

@@ -78,9 +78,11 @@ Bytes with_mesh_fields(const TwiHeader& explicit_mesh, const Bytes& mesh_fields)
 
 TEST(TwiRobustness, headers_claiming_absurd_image_sizes_are_refused) {
     const StillDecodeOptions small{.limits = kSmall};
-    expect_refused(header_file(grid_header(TwiTransform::grid53, 1 << 20, 1 << 20, 5)),
+    expect_refused(header_file(grid_header(TwiTransform::grid53, kMaxTwiSide, kMaxTwiSide, 5)),
                    "exceed the limit");
-    expect_refused(header_file(grid_header(TwiTransform::grid97, (1 << 20) + 1, 4, 5)), "width");
+    expect_refused(header_file(grid_header(TwiTransform::grid97, kMaxTwiSide + 1, 4, 5)), "width");
+    // Within the pixel limit but far more than a header-only file may claim.
+    expect_refused(header_file(grid_header(TwiTransform::grid53, 8192, 4096, 5)), "-byte file");
     expect_refused(header_file(grid_header(TwiTransform::grid97, 4, 0, 5)), "height");
     expect_refused(header_file(grid_header(TwiTransform::grid53, 1 << 14, 1 << 14, 5)),
                    "exceed the limit", small);
@@ -95,10 +97,12 @@ TEST(TwiRobustness, headers_claiming_absurd_image_sizes_are_refused) {
 TEST(TwiRobustness, headers_claiming_absurd_meshes_are_refused) {
     const StillDecodeOptions small{.limits = kSmall};
     const StillDecodeOptions no_pixel_limit{
-        .limits = {.max_pixels = std::numeric_limits<int64_t>::max()}};
-    expect_refused(header_file(mesh_header(1'000'000, 1'000'000, 1'000'000, 1'000'000, 1)),
+        .limits = {.max_pixels = std::numeric_limits<int64_t>::max(),
+                   .free_pixels = std::numeric_limits<int64_t>::max()}};
+    expect_refused(header_file(mesh_header(kMaxTwiSide, kMaxTwiSide, kMaxTwiSide, kMaxTwiSide, 1)),
                    "vertex limit", no_pixel_limit);
-    expect_refused(header_file(mesh_header(1'000'000, 60, 1'000'000, 60, 1)), "vertex limit");
+    expect_refused(header_file(mesh_header(kMaxTwiSide, 60, kMaxTwiSide, 60, 1)), "vertex limit",
+                   no_pixel_limit);
     expect_refused(header_file(mesh_header(64, 48, 65, 4, 1)), "grid columns");
     expect_refused(header_file(mesh_header(64, 48, 4, 49, 1)), "grid rows");
     expect_refused(header_file(mesh_header(1000, 1000, 100, 100, 12)), "samples");
@@ -106,8 +110,9 @@ TEST(TwiRobustness, headers_claiming_absurd_meshes_are_refused) {
 
     TwiHeader aligned = mesh_header(8193, 6145, 2, 2, 12);  // 67M samples
     aligned.placement = MeshPlacement::centres;
-    expect_refused(header_file(aligned), "samples");
-    aligned = mesh_header(2, 2, 1, 1, 12);  // 17M samples for 4 pixels
+    expect_refused(header_file(aligned), "samples", no_pixel_limit);
+    expect_refused(header_file(aligned), "-byte file");  // 50M pixels in a header-only file
+    aligned = mesh_header(2, 2, 1, 1, 12);               // 17M samples for 4 pixels
     aligned.placement = MeshPlacement::centres;
     expect_refused(header_file(aligned), "samples");
     aligned = mesh_header(65, 33, 4, 2, 4);
@@ -117,7 +122,8 @@ TEST(TwiRobustness, headers_claiming_absurd_meshes_are_refused) {
     expect_refused(header_file(aligned), "grid size");
     aligned = mesh_header(65, 33, 64, 32, 0);
     aligned.placement = MeshPlacement::centres;
-    expect_refused(header_file(aligned), "J >= 1");
+    expect_refused(header_file(aligned), "J must be at least 1");
+    expect_refused(header_file(mesh_header(64, 48, 4, 3, 0)), "J must be at least 1");
     TwiHeader centres_explicit = mesh_header(40, 30, 0, 0, 2);
     centres_explicit.placement = MeshPlacement::centres;
     centres_explicit.mesh = samples::paper_t0(40, 30);
@@ -361,6 +367,77 @@ TEST(TwiRobustness, a_tiny_header_cannot_make_the_decoder_allocate_gigabytes) {
             }
         });
     }
+}
+
+}  // namespace
+}  // namespace tesswave
+
+namespace tesswave {
+namespace {
+
+using namespace testing;
+
+// The reliability issue's probes, each a header of under 200 bytes (valid CRCs) that used to cost
+// gigabytes: 8192x8192 on a 27x27 grid mesh at J = 8 (13.6 GiB, 44 s), the same on the fixed grid
+// (6.4 GiB), a mesh at level 0 (refused late, without the file's name). Each is now refused by
+// the header check, in a child whose address space may grow by 100 MiB only; a 320x240 file of
+// 1 KB still decodes under the same cap.
+TEST(TwiRobustness, a_small_file_claims_no_more_than_its_bytes_justify) {
+#if defined(__SANITIZE_ADDRESS__)
+    GTEST_SKIP() << "address-space limits do not work under AddressSanitizer";
+#endif
+    const Image image = scene(320, 240);
+    const Bytes legit = compress_image(image, {.max_bytes = 1000}).file;
+    const auto decode_capped = [](const Bytes& file, bool must_decode) {
+        expect_error_or_return_in_child([&] {
+            size_t pages = 0;
+            std::ifstream("/proc/self/statm") >> pages;
+            const rlim_t cap = pages * static_cast<size_t>(sysconf(_SC_PAGESIZE)) + (100u << 20);
+            const rlimit limit{cap, cap};
+            setrlimit(RLIMIT_AS, &limit);
+            try {
+                decompress_image(file, "t.twi");
+            } catch (const std::bad_alloc&) {
+                std::fprintf(stderr, "the decoder needed more than 100 MiB\n");
+                std::_Exit(4);
+            } catch (const Error& e) {
+                if (must_decode) {
+                    std::fprintf(stderr, "%s\n", e.what());
+                    std::_Exit(5);
+                }
+                throw;
+            }
+        });
+    };
+    decode_capped(legit, true);
+    const Bytes mesh = header_file(mesh_header(8192, 8192, 27, 27, 8));
+    const Bytes grid = header_file(grid_header(TwiTransform::grid53, 8192, 8192, 5));
+    EXPECT_LT(mesh.size(), 200u);
+    for (const Bytes* file : {&mesh, &grid}) {
+        expect_refused(*file, "-byte file");
+        decode_capped(*file, false);
+    }
+    // The encoder refuses to write what the decoder would refuse: 4096x4096 in 100 bytes.
+    const Image flat = make_image(4096, 4096, 1);
+    EXPECT_THROW(compress_image(flat, {.transform = TwiTransform::grid53, .max_bytes = 100}),
+                 Error);
+    // --max-pixels (limits that trust the file) lets the big grid header through to the stream.
+    const TwiLimits trusting{.free_pixels = int64_t{1} << 26};
+    EXPECT_EQ(read_twi_header(grid, "t.twi", trusting).width, 8192);
+}
+
+// An explicit mesh is validated only after the header CRC: a damaged header is refused for its
+// CRC, before the validation (which grows faster than the mesh) runs. The mesh here is also
+// folded, so a validation that ran first would give its message instead.
+TEST(TwiRobustness, the_header_crc_is_checked_before_the_mesh_is_validated) {
+    TwiHeader h = mesh_header(400, 300, 0, 0, 1);
+    h.mesh = grid_mesh(400, 300, 30, 20);
+    h.mesh.vertices[40] = {390, 290};  // folds the faces around vertex 40
+    EXPECT_FALSE(validate(h.mesh, {.max_problems = 1}).ok());
+    Bytes file = header_file(h);
+    expect_refused(file, "mesh");   // intact: the validation refuses it
+    file[file.size() - 1] ^= 0x55;  // the CRC
+    expect_refused(file, "CRC");
 }
 
 }  // namespace

@@ -226,5 +226,66 @@ TEST(TwvRobustness, CraftedChunksWithValidCrcsAreRefused) {
     fs::remove(temp_path("crafted.twv"));
 }
 
+// The reliability issue's .twv probes: a 123-byte file of 8192x8192 frames made `info` use
+// 12 GiB (it decoded every frame) and `decode` run for minutes. The header's frame size is now
+// weighed against the file's bytes (trusting limits let it through), and describing a file reads
+// chunks without decoding them.
+TEST(TwvRobustness, ASmallFileClaimsNoMoreThanItsBytesJustify) {
+    const TwvHeader header{.width = 8192, .height = 8192};
+    TwvGroup g{.transform = TwiTransform::grid53, .levels = 5, .channel_factors = {1, 1, 1}};
+    g.band_norms.assign(twv_band_count(g, header), 1.0f);
+    TwvFrame intra{.number = 0, .kind = TwvFrameKind::intra};
+    intra.planes.assign(3, std::vector<uint8_t>(g.band_norms.size(), 0));
+    Bytes file = write_twv_header(header);
+    for (const Bytes& c : {group_chunk(g), twv_chunk('F', write_twv_frame(intra, g))}) {
+        file.insert(file.end(), c.begin(), c.end());
+    }
+    EXPECT_LT(file.size(), 200u);
+    const std::string path = temp_path("huge.twv");
+    write_bytes(path, file);
+    try {
+        VideoDecoder decoder(path);
+        ADD_FAILURE() << "a " << file.size() << "-byte file of 8192x8192 frames was accepted";
+    } catch (const Error& e) {
+        EXPECT_NE(std::string(e.what()).find("-byte file"), std::string::npos) << e.what();
+    }
+    VideoDecoder trusting(path, {.free_pixels = int64_t{1} << 26});
+    EXPECT_TRUE(trusting.skim());  // described without allocating a frame
+    EXPECT_EQ(trusting.info().kind, TwvFrameKind::intra);
+    EXPECT_FALSE(trusting.skim());
+    Image frame;
+    EXPECT_THROW(trusting.read(frame), Error);  // a skimming decoder does not decode
+    fs::remove(path);
+}
+
+TEST(TwvRobustness, SkimmingSeesTheFramesThatDecodingSees) {
+    const std::string path = temp_path("skim.twv");
+    small_file(path);
+    VideoDecoder decoding(path), skimming(path);
+    Image frame;
+    int frames = 0;
+    while (decoding.read(frame, false)) {
+        ASSERT_TRUE(skimming.skim());
+        EXPECT_EQ(skimming.info().number, decoding.info().number);
+        EXPECT_EQ(skimming.info().kind, decoding.info().kind);
+        EXPECT_EQ(skimming.info().bytes, decoding.info().bytes);
+        EXPECT_EQ(skimming.info().motion_bytes, decoding.info().motion_bytes);
+        ++frames;
+    }
+    EXPECT_FALSE(skimming.skim());
+    EXPECT_EQ(frames, 5);
+    fs::remove(path);
+}
+
+// The encoder refuses what the decoder refuses: J = 11 on 64x48 frames is over 20 samples a
+// pixel (it used to write a file that decode refused; J = 12 took 32 s and 4.9 GiB a frame).
+TEST(TwvRobustness, TheEncoderRefusesMeshesTheDecoderRefuses) {
+    const std::string path = temp_path("levels.twv");
+    EXPECT_THROW(VideoEncoder(path, 64, 48, 25, {.levels = 11}), Error);
+    EXPECT_THROW(VideoEncoder(path, 64, 48, 25, {.levels = 12}), Error);
+    EXPECT_NO_THROW(VideoEncoder(path, 64, 48, 25, {.levels = 4}));
+    EXPECT_FALSE(fs::exists(path));
+}
+
 }  // namespace
 }  // namespace tesswave::video

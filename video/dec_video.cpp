@@ -29,6 +29,12 @@ VideoDecoder::VideoDecoder(std::unique_ptr<ByteSource> source, const std::string
     if (!source_->read(0, head)) throw Error(str(name, ": cannot read"));
     size_t used = 0;
     header_ = read_twv_header(head, name, used, limits);
+    const int64_t needed = twv_bytes_needed(int64_t{header_.width} * header_.height, limits);
+    if (static_cast<int64_t>(file_size_) < needed) {
+        throw Error(str(name, ": ", header_.width, "x", header_.height, " frames in a ", file_size_,
+                        "-byte file (a file needs ", needed,
+                        " bytes to claim frames that large; --max-pixels raises the limit)"));
+    }
     position_ = header_bytes_ = used;
     data_end_ = file_size_;
     read_index();
@@ -118,6 +124,11 @@ void VideoDecoder::start_group(const Chunk& chunk) {
         throw Error(
             str(path_, ": group starts at frame ", g.first_frame, ", expected ", next_frame_));
     }
+    if (skimmed_) {  // described, not decoded: no domain
+        group_ = std::move(g);
+        in_group_ = true;
+        return;
+    }
     if (!domain_ || !same_domain(g, group_))
         domain_ = std::make_unique<CodingDomain>(group_domain(header_, g, false));
     group_ = std::move(g);
@@ -161,6 +172,16 @@ void VideoDecoder::decode_frame(const Chunk& chunk, Image* out) {
 }
 
 bool VideoDecoder::read(Image& out, bool render) {
+    if (skimmed_) throw Error(str(path_, ": a decoder that has skimmed cannot decode"));
+    return next_frame(render ? &out : nullptr, true);
+}
+
+bool VideoDecoder::skim() {
+    skimmed_ = true;
+    return next_frame(nullptr, false);
+}
+
+bool VideoDecoder::next_frame(Image* out, bool decode) {
     if (!damage_.empty()) return false;
     try {
         for (;;) {
@@ -170,7 +191,11 @@ bool VideoDecoder::read(Image& out, bool render) {
             if (chunk->tag == 'G') {
                 start_group(*chunk);
             } else if (chunk->tag == 'F') {
-                decode_frame(*chunk, render ? &out : nullptr);
+                if (decode) {
+                    decode_frame(*chunk, out);
+                } else {
+                    describe_frame(*chunk);
+                }
                 position_ = chunk->end;
                 return true;
             } else {
@@ -185,7 +210,24 @@ bool VideoDecoder::read(Image& out, bool render) {
     }
 }
 
+void VideoDecoder::describe_frame(const Chunk& chunk) {
+    const std::string what = str(path_, ": frame ", next_frame_);
+    if (!in_group_) throw Error(str(what, " comes before any group"));
+    const TwvFrame f = read_twv_frame(chunk.payload, group_, header_, what);
+    if (f.number != next_frame_) throw Error(str(what, ": the chunk says frame ", f.number));
+    const bool first = next_frame_ == group_.first_frame;
+    if (first != (f.kind == TwvFrameKind::intra)) {
+        throw Error(str(what, first ? " must be an intra frame" : " is an unexpected intra frame"));
+    }
+    info_ = {.number = f.number,
+             .kind = f.kind,
+             .bytes = static_cast<int64_t>(chunk.end - chunk.offset),
+             .motion_bytes = static_cast<int64_t>(f.motion.size())};
+    ++next_frame_;
+}
+
 bool VideoDecoder::seek(int64_t frame) {
+    if (skimmed_) throw Error(str(path_, ": a decoder that has skimmed cannot decode"));
     if (frame < 0) throw Error(str(path_, ": frame ", frame, " does not exist"));
     if (index_) {
         if (frame >= static_cast<int64_t>(index_->frame_offsets.size())) return false;

@@ -48,6 +48,10 @@ class VideoDecoder {
     // starts at that frame's group (false for a frame past the last); without one it decodes
     // from the start (or on from where it is). False (with damage()) when the clip breaks first.
     bool seek(int64_t frame);
+    // The next frame's chunk and group, checked but not decoded: info() and group() describe it
+    // (`tesswave info`), at a cost of reading its bytes. A decoder that has skimmed cannot decode
+    // afterwards (read() and seek() throw Error).
+    bool skim();
     const std::string& damage() const { return damage_; }
 
     // Of the frame read last.
@@ -68,6 +72,9 @@ class VideoDecoder {
     void read_index();
     void start_group(const Chunk& chunk);
     void decode_frame(const Chunk& chunk, Image* out);
+    bool next_frame(Image* out, bool decode);
+    void describe_frame(const Chunk& chunk);
+    bool skimmed_ = false;
 
     std::string path_;
     TwvLimits limits_;

@@ -52,6 +52,8 @@ TwvGroup choose_group(const TwvHeader& h, const VideoEncodeOptions& o) {
     g.grid_rows = std::min(g.grid_rows, h.height);
     g.levels = J - k;
     g.motion = o.motion;
+    const std::string problem = twv_group_size_problem(g, h);
+    if (!problem.empty()) throw Error(problem + "; lower --levels or --density");
     return g;
 }
 
@@ -318,6 +320,12 @@ int64_t VideoEncoder::finish() {
     const uint64_t index_offset = written_;
     write(twv_chunk('I', write_twv_index(index_)));
     write(twv_trailer(index_offset));
+    const int64_t needed = twv_bytes_needed(int64_t{header_.width} * header_.height);
+    if (static_cast<int64_t>(written_) < needed) {
+        throw Error(str(path_, ": the file would be ", written_, " bytes; one with ", header_.width,
+                        "x", header_.height, " frames needs at least ", needed,
+                        " to be decodable within the default limits (raise the rate)"));
+    }
     out_.close();
     if (!out_) throw Error(str(path_, ": write failed"));
     commit_temporary(temporary_, path_);

@@ -26,6 +26,12 @@ double grid_samples(int cols, int rows, int levels) {
 
 }  // namespace
 
+int64_t twv_bytes_needed(int64_t pixels, const TwvLimits& limits) {
+    if (pixels <= limits.free_pixels) return 0;
+    return (pixels - limits.free_pixels + limits.pixels_per_byte - 1) /
+           std::max<int64_t>(limits.pixels_per_byte, 1);
+}
+
 std::vector<uint8_t> write_twv_header(const TwvHeader& h) {
     ByteWriter w;
     for (uint8_t b : kTwvMagic) w.u8(b);
@@ -98,6 +104,18 @@ std::vector<uint8_t> write_twv_group(const TwvGroup& g) {
     return std::move(w.data());
 }
 
+std::string twv_group_size_problem(const TwvGroup& g, const TwvHeader& h, const TwvLimits& limits) {
+    if (g.transform != TwiTransform::mesh) return {};
+    if (g.levels < 1 || g.levels > 12) return str("mesh level ", g.levels, " is outside 1..12");
+    const double samples = grid_samples(g.grid_cols, g.grid_rows, g.levels);
+    const double cap = limits.max_samples_per_pixel * h.width * h.height + (1 << 20);
+    if (samples > static_cast<double>(limits.max_samples) || samples > cap) {
+        return str("the mesh has ", samples, " samples at level ", g.levels, " (limit ",
+                   limits.max_samples, ", and ", limits.max_samples_per_pixel, " a pixel)");
+    }
+    return {};
+}
+
 TwvGroup read_twv_group(std::span<const uint8_t> payload, const TwvHeader& h,
                         const std::string& what, const TwvLimits& limits) {
     ByteReader r(payload, what);
@@ -105,16 +123,12 @@ TwvGroup read_twv_group(std::span<const uint8_t> payload, const TwvHeader& h,
     g.first_frame = r.count("first frame", 0, limits.max_frames - 1);
     g.transform = static_cast<TwiTransform>(r.count("transform", 0, 2));
     if (g.transform == TwiTransform::mesh) {
-        g.levels = static_cast<int>(r.count("levels", 0, 12));
+        g.levels = static_cast<int>(r.count("levels", 1, 12));
         g.motion = static_cast<TwvMotion>(r.count("motion", 0, 1));
         g.grid_cols = static_cast<int>(r.count("grid columns", 1, h.width));
         g.grid_rows = static_cast<int>(r.count("grid rows", 1, h.height));
-        const double samples = grid_samples(g.grid_cols, g.grid_rows, g.levels);
-        const double cap = limits.max_samples_per_pixel * h.width * h.height + (1 << 20);
-        if (samples > static_cast<double>(limits.max_samples) || samples > cap) {
-            r.fail(str("the mesh has ", samples, " samples at level ", g.levels, " (limit ",
-                       limits.max_samples, ", and ", limits.max_samples_per_pixel, " a pixel)"));
-        }
+        const std::string problem = twv_group_size_problem(g, h, limits);
+        if (!problem.empty()) r.fail(problem);
     } else {
         g.levels = static_cast<int>(r.count("levels", 0, 20));
     }

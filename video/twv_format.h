@@ -79,7 +79,19 @@ struct TwvLimits {
     double max_samples_per_pixel = 20;    // and at most this many a pixel (plus 2^20)
     int64_t max_chunk_bytes = 256 << 20;  // a chunk's payload
     int64_t max_frames = 100'000'000;
+    // What a file may claim for its size (as TwiLimits): any file may have frames of free_pixels
+    // pixels; larger frames need a byte of file for each pixels_per_byte pixels of a frame.
+    int64_t free_pixels = int64_t{1} << 21;
+    int64_t pixels_per_byte = 1024;
 };
+
+// Why a group's mesh is too large for the limits (empty: it is not): the one check of the decoder
+// and the encoder.
+std::string twv_group_size_problem(const TwvGroup& group, const TwvHeader& header,
+                                   const TwvLimits& limits = {});
+
+// The bytes a .twv file needs so that `limits` let it have frames of `pixels` pixels.
+int64_t twv_bytes_needed(int64_t pixels, const TwvLimits& limits = {});
 
 std::vector<uint8_t> write_twv_header(const TwvHeader& header);
 // `file` holds at least the header; `name` prefixes messages. Returns the header's size in `used`.

@@ -78,6 +78,10 @@ TwiHeader make_header(const Image& image, const StillOptions& o) {
     }
     // What the decoder's default limits accept, and nothing more.
     const TwiLimits limits;
+    if (image.width > kMaxTwiSide || image.height > kMaxTwiSide) {
+        throw Error(str(image.width, "x", image.height,
+                        ": a side is longer than the .twi limit of ", kMaxTwiSide));
+    }
     const int64_t pixels = int64_t{image.width} * image.height;
     if (pixels > limits.max_pixels) {
         throw Error(str(image.width, "x", image.height, " pixels exceed the .twi limit of ",
@@ -149,7 +153,8 @@ namespace {
 struct Coded {
     TwiHeader header;
     std::vector<uint8_t> head, stream;
-    double psnr = 0;  // of the kept prefix (NaN when not measured)
+    std::vector<uint8_t> full;  // the stream before the rate control cut it
+    double psnr = 0;            // of the kept prefix (NaN when not measured)
     bool target_reached = true;
     size_t bytes() const { return head.size() + stream.size(); }
 };
@@ -173,6 +178,7 @@ Coded code(const CodingDomain& domain, const TwiHeader& base, const IntPlanes& q
     }
     c.stream = encode_bitplanes(domain.layout(), const_spans(q), h.planes, bo);
     if (c.stream.size() > bo.max_bytes) c.stream.resize(bo.max_bytes);
+    c.full = c.stream;
     const int depth = h.bit_depth;
     if (o.target_psnr > 0 && !o.lossless) {
         // The smallest prefix reaching the target, by bisection (quality rises with the prefix).
@@ -240,6 +246,47 @@ size_t pick(const std::vector<Coded>& c, const CodingDomain& domain, const Image
 
 }  // namespace
 
+namespace {
+
+// The decoder's default limits weigh a header against the file's size (a small file may only
+// claim a small image). A file below that floor keeps more of its stream, or, when the whole
+// stream is shorter (a large flat image), gets zeros after it, which the decoder never reads:
+// a complete stream stops at its last bit-plane.
+void meet_size_floor(Coded& c, const CodingDomain& domain, const Image& image,
+                     const StillOptions& o) {
+    const TwiHeader& h = c.header;
+    const int64_t samples = h.transform == TwiTransform::mesh ? sample_count(h.mesh, h.levels) : 0;
+    const int64_t needed = twi_bytes_needed(int64_t{h.width} * h.height, samples);
+    if (static_cast<int64_t>(c.bytes()) >= needed) return;
+    if (o.max_bytes > 0 && o.max_bytes < needed) {
+        throw Error(str("a ", h.width, "x", h.height, " file needs at least ", needed,
+                        " bytes to be decodable within the default limits; the budget is ",
+                        o.max_bytes));
+    }
+    const size_t want = static_cast<size_t>(needed) - c.head.size();
+    c.stream.assign(c.full.begin(),
+                    c.full.begin() + static_cast<std::ptrdiff_t>(std::min(want, c.full.size())));
+    c.stream.resize(want, 0);  // zeros only past a complete stream
+    if (!std::isnan(c.psnr))
+        c.psnr = image_psnr(image, reconstruct(domain, h, c.stream), h.bit_depth);
+}
+
+// A file the decoder's default limits would refuse is never written.
+void require_decodable(const StillResult& r) {
+    const TwiHeader& h = r.header;
+    const int64_t samples = h.transform == TwiTransform::mesh ? sample_count(h.mesh, h.levels) : 0;
+    const int64_t needed = twi_bytes_needed(int64_t{h.width} * h.height, samples);
+    if (static_cast<int64_t>(r.file.size()) < needed) {
+        throw Error(str("the file would be ", r.file.size(), " bytes; one of ", h.width, "x",
+                        h.height, " pixels", samples > 0 ? str(" and ", samples, " samples") : "",
+                        " needs at least ", needed,
+                        " to be decodable within the default limits (raise the rate or lower "
+                        "the density)"));
+    }
+}
+
+}  // namespace
+
 StillResult compress_image(const Image& image, const StillOptions& o) {
     if (o.max_bytes < 0) throw Error(str("byte budget ", o.max_bytes, " is negative"));
     StillResult result;
@@ -259,10 +306,12 @@ StillResult compress_image(const Image& image, const StillOptions& o) {
         }
         progress(o, 0.5, "coding");
         Coded c = code(domain, h, q, image, o, o.measure);
+        meet_size_floor(c, domain, image, o);
         result.header = c.header;
         result.psnr = c.psnr;
         result.file = std::move(c.head);
         result.file.insert(result.file.end(), c.stream.begin(), c.stream.end());
+        require_decodable(result);
         progress(o, 1.0, "done");
         return result;
     }
@@ -295,6 +344,7 @@ StillResult compress_image(const Image& image, const StillOptions& o) {
     progress(o, 0.9, "choosing");
     const size_t best = choices.size() > 1 ? pick(coded, domain, image, o) : 0;
     Coded& c = coded[best];
+    meet_size_floor(c, domain, image, o);
     result.header = c.header;
     result.psnr = o.measure ? c.psnr : std::numeric_limits<double>::quiet_NaN();
     result.target_reached = c.target_reached;
@@ -302,15 +352,21 @@ StillResult compress_image(const Image& image, const StillOptions& o) {
         choices[best].sampling == Sampling::point ? "point" : str("fit ", choices[best].smoothness);
     result.file = std::move(c.head);
     result.file.insert(result.file.end(), c.stream.begin(), c.stream.end());
+    require_decodable(result);
     progress(o, 1.0, "done");
     return result;
 }
 
 Image decompress_image(std::span<const uint8_t> file, const std::string& name,
                        const StillDecodeOptions& options) {
-    file = file.first(std::min(file.size(), options.max_bytes));
+    // The header is weighed against the whole file; a prefix decodes the first max_bytes.
     const TwiHeader h = read_twi_header(file, name, options.limits);
+    if (options.max_bytes < h.header_bytes) {
+        throw Error(str(name, ": ", options.max_bytes, " bytes do not hold the ", h.header_bytes,
+                        "-byte header"));
+    }
     const CodingDomain domain(still_shape(h), 0, h.band_norms);
+    file = file.first(std::min(file.size(), options.max_bytes));
     return reconstruct(domain, h, file.subspan(h.header_bytes));
 }
 

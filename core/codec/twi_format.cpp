@@ -85,7 +85,6 @@ void read_mesh(ByteReader& r, TwiHeader& h, const TwiLimits& limits, const std::
             r.fail(str("a ", h.grid_cols, "x", h.grid_rows, " grid mesh exceeds the vertex limit"));
         }
         if (h.placement == MeshPlacement::centres) {
-            if (h.levels < 1) r.fail("a mesh on pixel centres needs J >= 1");
             const int64_t cell = int64_t{1} << h.levels;
             if (h.grid_cols != aligned_cells(h.width, h.levels) ||
                 h.grid_rows != aligned_cells(h.height, h.levels)) {
@@ -134,10 +133,16 @@ void read_mesh(ByteReader& r, TwiHeader& h, const TwiLimits& limits, const std::
             e[0] = static_cast<int32_t>(r.count("feature vertex", 0, nv - 1));
             e[1] = static_cast<int32_t>(r.count("feature vertex", 0, nv - 1));
         }
-        require_valid(m, name + ": mesh");
     } else {
         r.fail(str("unknown mesh kind ", kind));
     }
+    (void)name;
+}
+
+// The samples of T_J against the limits and the file's bytes (after the CRC: an explicit mesh's
+// counts are only trusted, and it is only validated, once the header is known to be intact).
+void check_mesh_size(ByteReader& r, const TwiHeader& h, const TwiLimits& limits,
+                     size_t file_bytes) {
     const int64_t samples = sample_count(h.mesh, h.levels);
     const double per_pixel_cap =
         limits.max_samples_per_pixel * (static_cast<double>(h.width) * h.height) + (1 << 20);
@@ -145,9 +150,22 @@ void read_mesh(ByteReader& r, TwiHeader& h, const TwiLimits& limits, const std::
         r.fail(str("the mesh has ", samples, " samples at level ", h.levels, " (limit ",
                    limits.max_samples, ", and ", limits.max_samples_per_pixel, " a pixel)"));
     }
+    const int64_t needed = twi_bytes_needed(0, samples, limits);
+    if (static_cast<int64_t>(file_bytes) < needed) {
+        r.fail(str(samples, " mesh samples in a ", file_bytes, "-byte file (a file needs ", needed,
+                   " bytes to claim that many; --max-pixels raises the limit)"));
+    }
 }
 
 }  // namespace
+
+int64_t twi_bytes_needed(int64_t pixels, int64_t samples, const TwiLimits& limits) {
+    auto need = [](int64_t count, int64_t free, int64_t per_byte) -> int64_t {
+        return count <= free ? 0 : (count - free + per_byte - 1) / std::max<int64_t>(per_byte, 1);
+    };
+    return std::max(need(pixels, limits.free_pixels, limits.pixels_per_byte),
+                    need(samples, limits.free_samples, limits.samples_per_byte));
+}
 
 void round_mesh_vertices(Mesh& mesh) {
     for (Vec2& p : mesh.vertices) {
@@ -215,13 +233,21 @@ TwiHeader read_twi_header(std::span<const uint8_t> file, const std::string& name
     if (h.colour != TwiColour::none && h.channels < 3) r.fail("colour transform needs 3 channels");
     h.bit_depth = static_cast<int>(r.u8("bit depth"));
     if (h.bit_depth != 8 && h.bit_depth != 16) r.fail(str("bit depth ", h.bit_depth));
-    h.width = static_cast<int>(r.count("width", 1, 1 << 20));
-    h.height = static_cast<int>(r.count("height", 1, 1 << 20));
-    if (int64_t{h.width} * h.height > limits.max_pixels) {
+    h.width = static_cast<int>(r.count("width", 1, kMaxTwiSide));
+    h.height = static_cast<int>(r.count("height", 1, kMaxTwiSide));
+    const int64_t pixels = int64_t{h.width} * h.height;
+    if (pixels > limits.max_pixels) {
         r.fail(str(h.width, "x", h.height, " pixels exceed the limit of ", limits.max_pixels));
+    }
+    if (static_cast<int64_t>(file.size()) < twi_bytes_needed(pixels, 0, limits)) {
+        r.fail(str(h.width, "x", h.height, " pixels in a ", file.size(),
+                   "-byte file (a file needs ", twi_bytes_needed(pixels, 0, limits),
+                   " bytes to claim that many; --max-pixels raises the limit)"));
     }
     h.levels = static_cast<int>(r.u8("levels"));
     if (h.levels > (h.transform == TwiTransform::mesh ? 12 : 20)) r.fail("too many levels");
+    if (h.transform == TwiTransform::mesh && h.levels < 1)
+        r.fail("mesh level J must be at least 1");
     if (h.transform == TwiTransform::mesh) read_mesh(r, h, limits, name);
     h.base_step = r.f32("base step");
     if (!(h.base_step > 0)) r.fail("the base step must be positive");
@@ -249,6 +275,10 @@ TwiHeader read_twi_header(std::span<const uint8_t> file, const std::string& name
     const uint32_t expected = crc32(file.first(r.position()));
     if (r.u32("header CRC") != expected) r.fail("header CRC mismatch (corrupted file)");
     h.header_bytes = r.position();
+    if (h.transform == TwiTransform::mesh) {
+        check_mesh_size(r, h, limits, file.size());
+        if (h.grid_cols == 0) require_valid(h.mesh, name + ": mesh");  // explicit: check it
+    }
     return h;
 }
 

@@ -50,12 +50,28 @@ struct TwiHeader {
 // Decoding takes about 100 bytes a pixel (grid) or a mesh sample, so the defaults bound a
 // header's claims to a few GB: 2^26 pixels (e.g. 8192 x 8192), and mesh samples at most 50 M and
 // at most 20 a pixel (plus 2^20 for tiny images; the encoder offers up to 16).
+// The longest side a .twi image may have (image files: PNG takes up to 10^6, JPEG 65535).
+constexpr int kMaxTwiSide = 65535;
+
 struct TwiLimits {
     int64_t max_pixels = int64_t{1} << 26;
     int64_t max_samples = 50'000'000;  // mesh samples of T_J
     double max_samples_per_pixel = 20;
     int max_mesh_vertices = 1'000'000;
+    // What a file may claim for its size, so that a tiny file cannot cost much memory or time to
+    // decode (decoding takes about 50 bytes a pixel and 200 a mesh sample): any file may claim
+    // free_pixels pixels and free_samples samples; more need a byte of file for each
+    // pixels_per_byte pixels or samples_per_byte samples. A 1 KB file may claim 3 M pixels and
+    // 0.8 M samples. The encoder refuses to write what this refuses to read.
+    int64_t free_pixels = int64_t{1} << 21;
+    int64_t pixels_per_byte = 1024;
+    int64_t free_samples = int64_t{1} << 19;
+    int64_t samples_per_byte = 256;
 };
+
+// The bytes a file needs so that `limits` let it claim `pixels` pixels and `samples` mesh samples
+// (0 for the fixed grid).
+int64_t twi_bytes_needed(int64_t pixels, int64_t samples, const TwiLimits& limits = {});
 
 // Quantizes explicit mesh vertices to the file's 1/256-pixel grid (the encoder codes the mesh the
 // decoder will see).
@@ -63,8 +79,9 @@ void round_mesh_vertices(Mesh& mesh);
 
 std::vector<uint8_t> write_twi_header(const TwiHeader& header);
 
-// Reads and checks the header; `name` prefixes messages. The mesh is validated, and the sizes
-// are checked against the limits before anything is allocated for them.
+// Reads and checks the header; `name` prefixes messages. The sizes are checked against the limits
+// and against the bytes of `file` (the whole file) before anything is allocated for them, and the
+// header CRC before an explicit mesh is validated.
 TwiHeader read_twi_header(std::span<const uint8_t> file, const std::string& name,
                           const TwiLimits& limits = {});
 

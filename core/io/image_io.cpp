@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 
 #include "core/io/file_io.h"
 #include "core/math/error.h"
@@ -44,7 +45,7 @@ class QuietStderr {
 
 }  // namespace
 
-Image read_image(const std::string& path, const ImageLimits& limits) {
+Image read_image(const std::string& path, const ImageLimits& limits, ImageNotes* notes) {
     QuietStderr quiet;
     // Alpha stays as stored (straight): no premultiplication on the way in or out.
     OIIO::ImageSpec config;
@@ -58,9 +59,17 @@ Image read_image(const std::string& path, const ImageLimits& limits) {
     if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0) {
         throw Error(path + ": image has no pixels");
     }
-    if (int64_t{spec.width} * spec.height > limits.max_pixels) {
+    const int64_t declared = int64_t{spec.width} * spec.height;
+    if (declared > limits.max_pixels) {
         throw Error(str(path, ": ", spec.width, "x", spec.height, " exceeds the limit of ",
                         limits.max_pixels, " pixels"));
+    }
+    std::error_code ec;
+    const auto bytes = static_cast<int64_t>(std::filesystem::file_size(path, ec));
+    if (!ec && declared > limits.free_pixels &&
+        (declared - limits.free_pixels) / std::max<int64_t>(limits.pixels_per_byte, 1) > bytes) {
+        throw Error(str(path, ": declares ", spec.width, "x", spec.height, " pixels in ", bytes,
+                        " bytes (more than an image file of that size may claim)"));
     }
     const int channels = std::min(spec.nchannels, limits.max_channels);
     const SampleFormat format = spec.format == OIIO::TypeDesc::UINT8            ? SampleFormat::u8
@@ -73,11 +82,18 @@ Image read_image(const std::string& path, const ImageLimits& limits) {
     }
     Image image = make_image(spec.width, spec.height, channels, format);
     const size_t n = static_cast<size_t>(spec.width) * spec.height;
+    int64_t non_finite = 0;
     for (size_t i = 0; i < n; ++i) {
         for (int c = 0; c < channels; ++c) {
             const float v = pixels[i * channels + c];
-            image.planes[c][i] = std::isfinite(v) ? v : 0.0f;
+            const bool finite = std::isfinite(v);
+            non_finite += !finite;
+            image.planes[c][i] = finite ? v : 0.0f;
         }
+    }
+    if (notes) {
+        notes->non_finite = non_finite;
+        notes->decoder = in->has_error() ? in->geterror() : std::string();
     }
     return image;
 }

@@ -80,6 +80,7 @@ void check_depth(std::string_view text, const std::string& name) {
 }
 
 json parse_json(std::string_view text, const std::string& name) {
+    text = without_bom(text);
     check_depth(text, name);
     try {
         return json::parse(text);
@@ -178,6 +179,7 @@ void write_mesh(const Mesh& mesh, const std::string& path) {
 }
 
 std::vector<Vec2> parse_points(std::string_view text, const std::string& name) {
+    text = without_bom(text);
     std::vector<Vec2> points;
     size_t first = text.find_first_not_of(" \t\r\n");
     if (first != std::string_view::npos && text[first] == '[') {

@@ -3,6 +3,7 @@
 
 #include <sstream>
 #include <string>
+#include <string_view>
 
 namespace tesswave {
 
@@ -12,6 +13,11 @@ std::string str(const Args&... args) {
     out.precision(10);
     (out << ... << args);
     return out.str();
+}
+
+// Text files saved by some editors start with a UTF-8 byte-order mark; parsers skip it.
+inline std::string_view without_bom(std::string_view text) {
+    return text.substr(0, 3) == "\xEF\xBB\xBF" ? text.substr(3) : text;
 }
 
 }  // namespace tesswave
