@@ -197,6 +197,11 @@ Mesh generated_mesh(const std::string& spec, double width, double height) {
                           ? std::pair{std::max(1, static_cast<int>(std::lround(width / 24))),
                                       std::max(1, static_cast<int>(std::lround(height / 24)))}
                           : parse_cells(count, "--mesh grid");
+        if (c > std::max(1.0, width) || r > std::max(1.0, height)) {
+            throw CLI::ValidationError(
+                "--mesh", str("grid:", c, "x", r, " has more cells than the ", width, "x", height,
+                              " pixels of the domain"));
+        }
         return grid_mesh(width, height, c, r);
     }
     if (kind == "voronoi") {
@@ -214,6 +219,14 @@ Mesh generated_mesh(const std::string& spec, double width, double height) {
                     "--mesh", str("voronoi:N needs N from 1 to 1000000, got \"", count, "\""));
             }
             sites = static_cast<int>(n);
+            // Cells smaller than a pixel carry nothing and cost Voronoi and validation time
+            // growing faster than the count (10^6 sites on 64x48 ran past a minute).
+            const double cells = std::max(1.0, std::floor(width * height));
+            if (sites > cells) {
+                throw CLI::ValidationError(
+                    "--mesh", str("voronoi:", sites, " has more cells than the ", cells,
+                                  " pixels of the domain"));
+            }
         }
         return voronoi_mesh(width, height, {.sites = sites, .seed = 1, .lloyd_iterations = 2});
     }

@@ -154,9 +154,13 @@ void add_validate(CLI::App& mesh_cmd) {
         const Mesh mesh = read_mesh(args->path);
         const ValidationReport report = validate(mesh);
         if (args->json) {
-            nlohmann::json j = {{"file", args->path},          {"valid", report.ok()},
-                                {"problems", report.problems}, {"vertices", mesh.num_vertices()},
-                                {"faces", mesh.num_faces()},   {"features", mesh.features.size()}};
+            nlohmann::json j = {{"file", args->path},
+                                {"valid", report.ok()},
+                                {"problems", report.problems},
+                                {"stopped", report.stopped},
+                                {"vertices", mesh.num_vertices()},
+                                {"faces", mesh.num_faces()},
+                                {"features", mesh.features.size()}};
             std::printf("%s\n", j.dump(2).c_str());
         } else if (report.ok()) {
             std::printf("%s: valid (%d vertices, %d faces, %zu feature edges)\n",
@@ -168,6 +172,10 @@ void add_validate(CLI::App& mesh_cmd) {
                 for (const auto& p : report.problems) {
                     std::fprintf(stderr, "tesswave: %s: %s\n", args->path.c_str(), p.c_str());
                 }
+                std::fprintf(stderr, "tesswave: %s: %zu problem%s%s\n", args->path.c_str(),
+                             report.problems.size(), report.problems.size() == 1 ? "" : "s",
+                             report.stopped ? " shown; the checks stopped there, there may be more"
+                                            : " in all");
             }
             throw CLI::RuntimeError(1);
         }
@@ -247,6 +255,15 @@ void add_draw(CLI::App& mesh_cmd) {
         const Mesh mesh = read_mesh(args->path);
         require_valid(mesh, args->path);
         const bool svg = std::filesystem::path(args->out.path).extension() == ".svg";
+        if (svg && args->draw.levels > 0) {
+            // One SVG element a T_levels edge: say so before writing hundreds of megabytes.
+            const int64_t edges = level_counts(mesh, args->draw.levels)[args->draw.levels].edges;
+            if (edges > 1'000'000) {
+                warn(str("warning: ", args->out.path, ": ", edges, " lines at level ",
+                         args->draw.levels, " make an SVG of about ", edges * 100 / 1'000'000,
+                         " MB (fewer --levels, or a PNG, is lighter)"));
+            }
+        }
         if (svg) {
             std::string href;
             if (!args->image.empty()) {

@@ -7,8 +7,11 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <limits>
 
+#include "core/codec/byte_io.h"
 #include "core/math/error.h"
+#include "core/math/strings.h"
 #include "temp_dir.h"
 #include "test_meshes.h"
 
@@ -93,6 +96,53 @@ TEST(ImageIo, bad_files_are_one_error_naming_the_file) {
     EXPECT_THROW(read_image(dir / "ok.png", {.max_pixels = 10}), Error);  // 64 > 10 pixels
     EXPECT_THROW(write_image(Image{}, dir / "empty.png"), Error);
     EXPECT_FALSE(fs::exists(dir / "empty.png"));
+}
+
+// An image bomb: a 1 KB PNG whose header claims 8000x8000 (64 M pixels, 1 GB as floats) is
+// refused from its header, as is one over the 2^26-pixel limit; a real 8000x8000 one-colour PNG
+// is larger than the 63 KB this asks for. NaN pixels are read as 0 and counted.
+TEST(ImageIo, a_small_file_may_not_declare_a_huge_image) {
+    const TempDir dir;
+    const std::string small = (dir.path / "small.png").string();
+    write_image(pattern(16, 16, 3, SampleFormat::u8), small);
+    std::ifstream in(small, std::ios::binary);
+    std::vector<uint8_t> png(std::istreambuf_iterator<char>(in), {});
+    ASSERT_GT(png.size(), 33u);
+    // IHDR: length (4), type (4), width and height (big-endian), ..., CRC over type and data.
+    auto claim = [&](uint32_t w, uint32_t h) {
+        std::vector<uint8_t> out = png;
+        for (int k = 0; k < 4; ++k) {
+            out[16 + k] = static_cast<uint8_t>(w >> (24 - 8 * k));
+            out[20 + k] = static_cast<uint8_t>(h >> (24 - 8 * k));
+        }
+        const uint32_t crc = crc32(std::span<const uint8_t>(out).subspan(12, 17));
+        for (int k = 0; k < 4; ++k) out[29 + k] = static_cast<uint8_t>(crc >> (24 - 8 * k));
+        const std::string path = (dir.path / str("claims_", w, "x", h, ".png")).string();
+        std::ofstream(path, std::ios::binary)
+            .write(reinterpret_cast<const char*>(out.data()),
+                   static_cast<std::streamsize>(out.size()));
+        return path;
+    };
+    EXPECT_NE(testing::error_of([&] { read_image(claim(8000, 8000)); }).find("may claim"),
+              std::string::npos);
+    EXPECT_NE(testing::error_of([&] { read_image(claim(20000, 20000)); }).find("exceeds the limit"),
+              std::string::npos);
+    EXPECT_NO_THROW(read_image(small));
+
+    Image nan = make_image(4, 4, 1, SampleFormat::f32);
+    nan.planes[0][3] = std::numeric_limits<float>::quiet_NaN();
+    nan.planes[0][5] = std::numeric_limits<float>::infinity();
+    const std::string exr = (dir.path / "nan.exr").string();
+    write_image(nan, exr);
+    ImageNotes notes;
+    const Image back = read_image(exr, {}, &notes);
+    int64_t stored = 0;  // what the EXR kept non-finite (the writer may clamp infinities)
+    for (const int i : {3, 5}) {
+        stored += back.planes[0][i] == 0.0f;
+    }
+    EXPECT_GE(notes.non_finite, 1);
+    EXPECT_EQ(notes.non_finite, stored);
+    EXPECT_EQ(back.planes[0][3], 0.0f);  // the NaN
 }
 
 }  // namespace

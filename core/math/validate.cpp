@@ -16,6 +16,7 @@ class Collector {
     explicit Collector(size_t limit) : limit_(limit) {}
     void add(std::string problem) {
         if (report_.problems.size() < limit_) report_.problems.push_back(std::move(problem));
+        report_.stopped = report_.problems.size() >= limit_;
     }
     bool full() const { return report_.problems.size() >= limit_; }
     bool any() const { return !report_.problems.empty(); }
