@@ -42,9 +42,11 @@ struct Note {
     bool folder;
 };
 
+// Never destroyed: a signal may come while static destructors run, and the notes must stay
+// reachable (a destroyed vector would leave its strings behind).
 std::vector<Note>& notes() {
-    static std::vector<Note> list;
-    return list;
+    static auto* list = new std::vector<Note>;
+    return *list;
 }
 
 // Runs `change` with SIGINT and SIGTERM blocked, so that the handler never sees a half-made note.
