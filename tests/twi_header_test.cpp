@@ -20,6 +20,15 @@ namespace {
 
 using namespace testing;
 
+// In a test's child process: the address space may grow by `extra` bytes only.
+void cap_address_space(size_t extra) {
+    size_t pages = 0;
+    std::ifstream("/proc/self/statm") >> pages;
+    const rlim_t cap = pages * static_cast<size_t>(sysconf(_SC_PAGESIZE)) + extra;
+    const rlimit limit{cap, cap};
+    setrlimit(RLIMIT_AS, &limit);
+}
+
 // A header whose band arrays fit its transform and levels (so that the field under test is what
 // gets refused), with a stream of `stream_bytes` bytes.
 Bytes header_file(TwiHeader h, size_t stream_bytes = 0, uint8_t planes = 4) {
@@ -353,12 +362,7 @@ TEST(TwiRobustness, a_tiny_header_cannot_make_the_decoder_allocate_gigabytes) {
           std::pair{"grid mesh 2x1, J = 12", header_file(mesh_header(2, 1, 2, 1, 12))}}) {
         SCOPED_TRACE(str(name, ", ", file.size(), " bytes"));
         expect_error_or_return_in_child([&] {
-            size_t pages = 0;
-            std::ifstream("/proc/self/statm") >> pages;
-            const rlim_t cap =
-                pages * static_cast<size_t>(sysconf(_SC_PAGESIZE)) + (size_t{1} << 30);
-            const rlimit limit{cap, cap};
-            setrlimit(RLIMIT_AS, &limit);
+            cap_address_space(size_t{1} << 30);
             try {
                 decompress_image(file, "t.twi");
             } catch (const std::bad_alloc&) {
@@ -390,11 +394,7 @@ TEST(TwiRobustness, a_small_file_claims_no_more_than_its_bytes_justify) {
     const Bytes legit = compress_image(image, {.max_bytes = 1000}).file;
     const auto decode_capped = [](const Bytes& file, bool must_decode) {
         expect_error_or_return_in_child([&] {
-            size_t pages = 0;
-            std::ifstream("/proc/self/statm") >> pages;
-            const rlim_t cap = pages * static_cast<size_t>(sysconf(_SC_PAGESIZE)) + (100u << 20);
-            const rlimit limit{cap, cap};
-            setrlimit(RLIMIT_AS, &limit);
+            cap_address_space(size_t{100} << 20);
             try {
                 decompress_image(file, "t.twi");
             } catch (const std::bad_alloc&) {

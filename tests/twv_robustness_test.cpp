@@ -180,12 +180,23 @@ std::string crafted(const std::vector<Bytes>& chunks) {
 
 Bytes group_chunk(TwvGroup g) { return twv_chunk('G', write_twv_group(g)); }
 
-TEST(TwvRobustness, CraftedChunksWithValidCrcsAreRefused) {
-    const TwvHeader header{.width = 32, .height = 24};
-    TwvGroup g{.transform = TwiTransform::grid53, .levels = 2, .channel_factors = {1, 1, 1}};
+// A fixed-grid 5/3 group of `levels` for `header`'s frames, and its intra frame with no planes.
+TwvGroup grid_group(const TwvHeader& header, int levels) {
+    TwvGroup g{.transform = TwiTransform::grid53, .levels = levels, .channel_factors = {1, 1, 1}};
     g.band_norms.assign(twv_band_count(g, header), 1.0f);
+    return g;
+}
+
+TwvFrame empty_intra(const TwvGroup& g) {
     TwvFrame intra{.number = 0, .kind = TwvFrameKind::intra};
     intra.planes.assign(3, std::vector<uint8_t>(g.band_norms.size(), 0));
+    return intra;
+}
+
+TEST(TwvRobustness, CraftedChunksWithValidCrcsAreRefused) {
+    const TwvHeader header{.width = 32, .height = 24};
+    const TwvGroup g = grid_group(header, 2);
+    const TwvFrame intra = empty_intra(g);
     TwvFrame delta = intra;
     delta.kind = TwvFrameKind::delta;
     const Bytes frame0 = twv_chunk('F', write_twv_frame(intra, g));
@@ -232,10 +243,8 @@ TEST(TwvRobustness, CraftedChunksWithValidCrcsAreRefused) {
 // chunks without decoding them.
 TEST(TwvRobustness, ASmallFileClaimsNoMoreThanItsBytesJustify) {
     const TwvHeader header{.width = 8192, .height = 8192};
-    TwvGroup g{.transform = TwiTransform::grid53, .levels = 5, .channel_factors = {1, 1, 1}};
-    g.band_norms.assign(twv_band_count(g, header), 1.0f);
-    TwvFrame intra{.number = 0, .kind = TwvFrameKind::intra};
-    intra.planes.assign(3, std::vector<uint8_t>(g.band_norms.size(), 0));
+    const TwvGroup g = grid_group(header, 5);
+    const TwvFrame intra = empty_intra(g);
     Bytes file = write_twv_header(header);
     for (const Bytes& c : {group_chunk(g), twv_chunk('F', write_twv_frame(intra, g))}) {
         file.insert(file.end(), c.begin(), c.end());
