@@ -45,25 +45,26 @@ nlohmann::json twi_info(const std::string& path, int64_t max_pixels) {
 nlohmann::json twv_info(const std::string& path, int64_t max_pixels) {
     video::VideoDecoder decoder(path, limits_for<video::TwvLimits>(max_pixels));
     const video::TwvHeader& h = decoder.header();
-    int64_t frames = 0, intra_bytes = 0, delta_bytes = 0, motion_bytes = 0, intra = 0;
+    int64_t frames = 0, intra_bytes = 0, delta_bytes = 0, band_bytes = 0, motion_bytes = 0;
+    int64_t groups = 0;
     std::map<std::string, int> domains;
     while (decoder.skim()) {  // headers and chunks only: describing a file decodes nothing
         const video::TwvFrameInfo& f = decoder.info();
         ++frames;
         motion_bytes += f.motion_bytes;
-        if (f.kind == video::TwvFrameKind::intra) {
-            ++intra;
-            intra_bytes += f.bytes;
-            const video::TwvGroup& g = decoder.group();
-            std::string d = str(transform_name(g.transform), ", ", g.levels, " levels");
-            if (g.transform == TwiTransform::mesh) {
-                d += str(", grid ", g.grid_cols, "x", g.grid_rows, ", ",
-                         g.motion == video::TwvMotion::tracked ? "tracked" : "static");
-            }
-            ++domains[d];
-        } else {
-            delta_bytes += f.bytes;
+        (f.kind == video::TwvFrameKind::intra   ? intra_bytes
+         : f.kind == video::TwvFrameKind::delta ? delta_bytes
+                                                : band_bytes) += f.bytes;
+        const video::TwvGroup& g = decoder.group();
+        if (f.number != g.first_frame) continue;
+        ++groups;
+        std::string d = str(transform_name(g.transform), ", ", g.levels, " levels");
+        if (g.transform == TwiTransform::mesh) {
+            d += str(", grid ", g.grid_cols, "x", g.grid_rows, ", ",
+                     g.motion == video::TwvMotion::tracked ? "tracked" : "static");
         }
+        d += g.lifted > 0 ? ", lifted" : ", low delay";
+        ++domains[d];
     }
     if (frames == 0) {
         throw Error(str(path, ": no decodable frame",
@@ -78,10 +79,11 @@ nlohmann::json twv_info(const std::string& path, int64_t max_pixels) {
         {"height", h.height},
         {"fps", h.fps()},
         {"frames", frames},
-        {"groups", intra},
+        {"groups", groups},
         {"indexed", decoder.frame_count().has_value()},
         {"intra_bytes", intra_bytes},
         {"delta_bytes", delta_bytes},
+        {"band_bytes", band_bytes},
         {"motion_bytes", motion_bytes},
         {"kbps", seconds > 0 ? decoder.file_bytes() * 8.0 / 1000 / seconds : 0},
         {"bpp",

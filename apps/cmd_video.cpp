@@ -26,9 +26,22 @@ struct EncodeArgs {
     double kbps = 0, quality = 0, density = 2.0, intra_weight = 4, fps = 0;
     int levels = 0, group = 32, motion_level = 0;
     int64_t max_frames = 0;
-    std::string sampling = "point";  // VideoEncodeOptions says why
-    bool overwrite = false, json = false;
+    std::string sampling = "fit";  // VideoEncodeOptions says why
+    std::string chroma = "auto";
+    bool low_delay = false, overwrite = false, json = false;
 };
+
+// The label of a frame kind in --json and tables.
+const char* kind_name(video::TwvFrameKind kind) {
+    switch (kind) {
+        case video::TwvFrameKind::intra:
+            return "intra";
+        case video::TwvFrameKind::delta:
+            return "delta";
+        default:
+            return "band";
+    }
+}
 
 // The mesh over the frame, and each track as a dot with a line to where it came from.
 void write_debug_frame(const std::string& dir, int64_t number, const Image& frame,
@@ -93,6 +106,8 @@ void run_encode(const EncodeArgs& a) {
         .density = a.density,
         .levels = a.levels,
         .group = a.group,
+        .low_delay = a.low_delay,
+        .chroma_420 = a.chroma == "420" || (a.chroma == "auto" && source.chroma_subsampled()),
         .kbps = a.kbps,
         .intra_weight = a.intra_weight};
     if (a.quality > 0) o.quality = a.quality;
@@ -101,10 +116,12 @@ void run_encode(const EncodeArgs& a) {
     const int64_t total = a.max_frames > 0 ? a.max_frames : source.frame_count_estimate();
     ProgressBar bar;
     int64_t n = 0, groups = 0;
+    int64_t* given_count = nullptr;  // set below: frames given to the encoder
     if (total > 0) {
-        o.progress = [&bar, &n, total](double done, const char* stage) {
-            bar.update((static_cast<double>(n) + done) / static_cast<double>(total),
-                       str("frame ", n + 1, ": ", stage).c_str());
+        o.progress = [&bar, &given_count, total](double done, const char* stage) {
+            const int64_t g = given_count ? *given_count : 0;
+            bar.update((static_cast<double>(g) + done) / static_cast<double>(total),
+                       str("frame ", g + 1, ": ", stage).c_str());
         };
     }
     std::unique_ptr<video::VideoEncoder> encoder;
@@ -118,27 +135,22 @@ void run_encode(const EncodeArgs& a) {
     nlohmann::json frames = nlohmann::json::array();
     Image frame;
     double psnr_sum = 0;
-    while ((a.max_frames <= 0 || n < a.max_frames) && source.read(frame)) {
-        video::EncodedFrame f;
-        try {
-            f = encoder->encode(frame);
-        } catch (const Error& e) {
-            throw Error(str(a.input, ": frame ", n, ": ", e.what()));
-        }
-        if (!a.debug_dir.empty()) write_debug_frame(a.debug_dir, n, frame, *encoder);
+    int64_t given = 0;
+    given_count = &given;
+    // A coded frame: its line in --json, its PSNR, the warnings it brings.
+    const auto take = [&](const video::EncodedFrame& f) {
         psnr_sum += std::min(f.psnr, 100.0);  // identical frames count as 100 dB, as x264 does
-        if (o.quality > 0 && f.kind == video::TwvFrameKind::intra && f.quality_target < o.quality &&
-            !a.json) {
+        if (o.quality > 0 && f.first_in_group && f.quality_target < o.quality && !a.json) {
             char line[160];
             std::snprintf(line, sizeof line,
                           "frame %lld: %.2f dB is out of reach on this mesh (its resampling caps "
                           "it); coding for %.2f dB",
-                          static_cast<long long>(n), o.quality, f.quality_target);
+                          static_cast<long long>(f.number), o.quality, f.quality_target);
             warn(str("warning: ", a.input, ": ", line));
         }
-        groups += f.kind == video::TwvFrameKind::intra;
+        groups += f.first_in_group;
         frames.push_back({{"frame", f.number},
-                          {"kind", f.kind == video::TwvFrameKind::intra ? "intra" : "delta"},
+                          {"kind", kind_name(f.kind)},
                           {"bytes", f.bytes},
                           {"motion_bytes", f.motion_bytes},
                           {"psnr", f.psnr},
@@ -147,7 +159,20 @@ void run_encode(const EncodeArgs& a) {
                           {"new_group", f.new_group},
                           {"quality_target", f.quality_target}});
         ++n;
+    };
+    const auto coded = [&](std::vector<video::EncodedFrame> done) {
+        for (const video::EncodedFrame& f : done) take(f);
+    };
+    while ((a.max_frames <= 0 || given < a.max_frames) && source.read(frame)) {
+        try {
+            coded(encoder->encode(frame));
+        } catch (const Error& e) {
+            throw Error(str(a.input, ": frame ", given, ": ", e.what()));
+        }
+        if (!a.debug_dir.empty()) write_debug_frame(a.debug_dir, given, frame, *encoder);
+        ++given;
     }
+    coded(encoder->flush());
     const int64_t bytes = encoder->finish();
     const double seconds = seconds_since(start);
     const double fps = encoder->header().fps();
@@ -284,13 +309,20 @@ std::vector<std::string> video_demo(const std::string& clip, const std::string& 
         Image frame;
         int64_t n = 0, groups = 0;
         const auto start = std::chrono::steady_clock::now();
-        while (source.read(frame)) {
-            const video::EncodedFrame f = encoder.encode(frame);
-            if (k == 0 && n % 10 == 0 && n <= 20) write_debug_frame(mesh_dir, n, frame, encoder);
-            psnr[k] += std::min(f.psnr, 100.0);
-            groups += f.kind == video::TwvFrameKind::intra;
-            ++n;
+        const auto take = [&](const std::vector<video::EncodedFrame>& done) {
+            for (const video::EncodedFrame& f : done) {
+                psnr[k] += std::min(f.psnr, 100.0);
+                groups += f.first_in_group;
+                ++n;
+            }
+        };
+        for (int64_t given = 0; source.read(frame); ++given) {
+            take(encoder.encode(frame));
+            if (k == 0 && given % 10 == 0 && given <= 20) {
+                write_debug_frame(mesh_dir, given, frame, encoder);
+            }
         }
+        take(encoder.flush());
         const int64_t bytes = encoder.finish();
         const double seconds = seconds_since(start);
         written.push_back(path);
@@ -318,8 +350,8 @@ std::vector<std::string> video_demo(const std::string& clip, const std::string& 
 void add_video_commands(CLI::App& app) {
     auto e = std::make_shared<EncodeArgs>();
     auto* enc = app.add_subcommand("encode",
-                                   "Compress a clip to .twv (coefficient deltas on a "
-                                   "mesh that follows the content)");
+                                   "Compress a clip to .twv (wavelets on a mesh that follows "
+                                   "the content, lifted along time)");
     enc->add_option("input", e->input,
                     "Clip: any file FFmpeg reads, a folder of frames, or raw .yuv (with --size)")
         ->required();
@@ -345,9 +377,17 @@ void add_video_commands(CLI::App& app) {
         ->check(CLI::Range(1, 12));
     enc->add_option("-g,--group", e->group, "Intra period: frames per group (default 32)")
         ->check(CLI::Range(1, 100000));
+    enc->add_flag("--low-delay", e->low_delay,
+                  "Closed-loop deltas, each frame coded as it comes, instead of lifting each "
+                  "group along time (a group of latency; better quality per bit)");
     enc->add_option("--intra-weight", e->intra_weight,
-                    "With --kbps: an intra frame's budget in delta frames (default 4)")
+                    "With --low-delay and --kbps: an intra frame's budget in delta frames "
+                    "(default 4)")
         ->check(CLI::Range(1.0, 100.0));
+    enc->add_option("--chroma", e->chroma,
+                    "Chroma resolution: 420 (one mesh level coarser), 444 (full), or auto (420 "
+                    "when the source is subsampled; default)")
+        ->check(CLI::IsMember({"auto", "420", "444"}));
     enc->add_option("--frames", e->max_frames, "Code at most this many frames")
         ->check(CLI::Range(int64_t{1}, int64_t{100'000'000}));
     enc->add_option("--fps", e->fps, "Frame rate (default: the clip's, or 25)")

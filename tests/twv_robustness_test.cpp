@@ -9,6 +9,7 @@
 
 #include "core/codec/byte_io.h"
 #include "core/math/error.h"
+#include "core/math/metrics.h"
 #include "samples/sample_clip.h"
 #include "temp_dir.h"
 #include "video/dec_video.h"
@@ -36,10 +37,12 @@ void write_bytes(const std::string& path, const Bytes& b) {
     out.write(reinterpret_cast<const char*>(b.data()), static_cast<std::streamsize>(b.size()));
 }
 
-// A small clip: 48x32, 5 frames, tracked mesh, a new group at frame 3, about 1.3 kB.
-Bytes small_file(const std::string& path) {
+// A small clip: 48x32, 5 frames, tracked mesh, a new group at frame 3, about 1.3 kB; lifted
+// groups or low-delay ones.
+Bytes small_file(const std::string& path, bool low_delay) {
     const samples::SampleClipOptions o{.width = 48, .height = 32, .frames = 5, .pan = {1, 0.5}};
-    VideoEncoder encoder(path, o.width, o.height, 25, {.group = 3, .kbps = 40});
+    VideoEncoder encoder(path, o.width, o.height, 25,
+                         {.group = 3, .low_delay = low_delay, .kbps = 40});
     for (int t = 0; t < o.frames; ++t) encoder.encode(samples::sample_clip_frame(o, t));
     encoder.finish();
     return read_bytes(path);
@@ -67,8 +70,10 @@ Decoded decode(const std::string& path, const Bytes* bytes = nullptr) {
 }
 
 // The end offset of every frame chunk, from the file's own index; `boundaries` gets every
-// offset where a cut leaves whole chunks only.
-std::vector<uint64_t> frame_ends(const Bytes& file, std::vector<uint64_t>* boundaries = nullptr) {
+// offset where a cut leaves whole chunks only, `group_ends` per frame the end of its group's last
+// frame chunk.
+std::vector<uint64_t> frame_ends(const Bytes& file, std::vector<uint64_t>* boundaries = nullptr,
+                                 std::vector<uint64_t>* group_ends = nullptr) {
     uint64_t index_offset = 0;
     for (int i = 7; i >= 0; --i) index_offset = (index_offset << 8) | file[file.size() - 12 + i];
     ByteReader r(std::span<const uint8_t>(file).subspan(index_offset), "index");
@@ -83,39 +88,66 @@ std::vector<uint64_t> frame_ends(const Bytes& file, std::vector<uint64_t>* bound
     std::vector<uint64_t> ends;
     for (uint64_t f : index.frame_offsets)
         ends.push_back(*std::upper_bound(starts.begin(), starts.end(), f));
+    if (group_ends) {
+        group_ends->assign(ends.size(), 0);
+        for (size_t t = 0; t < ends.size(); ++t) {
+            const auto next = std::upper_bound(index.group_first.begin(), index.group_first.end(),
+                                               static_cast<int64_t>(t));
+            const size_t last =
+                next == index.group_first.end() ? ends.size() - 1 : static_cast<size_t>(*next) - 1;
+            (*group_ends)[t] = ends[last];
+        }
+    }
     return ends;
 }
 
+// Low delay: every whole frame chunk decodes exactly. Lifted: every frame whose chunk arrived is
+// decoded, exactly once its whole group arrived (else from the bands received), and a cut inside
+// a group is reported.
 TEST(TwvRobustness, EveryCutDecodesTheWholeFramesBeforeIt) {
-    const std::string path = temp_path("cut_source.twv"), cut = temp_path("cut.twv");
-    const Bytes file = small_file(path);
-    const Decoded full = decode(path);
-    ASSERT_EQ(full.frames.size(), 5u);
-    ASSERT_EQ(full.damage, "");
-    std::vector<uint64_t> boundaries;
-    const std::vector<uint64_t> ends = frame_ends(file, &boundaries);
-    boundaries.push_back(write_twv_header({}).size());  // a header alone is a clip of no frames
-    EXPECT_LT(file.size(), 2000u);
-    for (size_t n = 0; n < file.size(); ++n) {
-        write_bytes(cut, Bytes(file.begin(), file.begin() + static_cast<std::ptrdiff_t>(n)));
-        const Decoded d = decode(cut);
-        const size_t whole = static_cast<size_t>(
-            std::count_if(ends.begin(), ends.end(), [&](uint64_t e) { return e <= n; }));
-        ASSERT_EQ(d.frames.size(), whole) << "cut at " << n << ": " << d.damage;
-        for (size_t t = 0; t < whole; ++t) ASSERT_EQ(d.frames[t].planes, full.frames[t].planes);
-        // Whole chunks only, or a whole index with a cut trailer.
-        const bool clean = std::find(boundaries.begin(), boundaries.end(), n) != boundaries.end() ||
-                           n >= file.size() - kTwvTrailerBytes;
-        EXPECT_EQ(d.damage.empty(), clean) << "cut at " << n << ": " << d.damage;
+    for (bool low_delay : {true, false}) {
+        SCOPED_TRACE(low_delay ? "low delay" : "lifted");
+        const std::string path = temp_path("cut_source.twv"), cut = temp_path("cut.twv");
+        const Bytes file = small_file(path, low_delay);
+        const Decoded full = decode(path);
+        ASSERT_EQ(full.frames.size(), 5u);
+        ASSERT_EQ(full.damage, "");
+        std::vector<uint64_t> boundaries, group_ends;
+        const std::vector<uint64_t> ends = frame_ends(file, &boundaries, &group_ends);
+        boundaries.push_back(write_twv_header({}).size());  // a header alone: no frames
+        EXPECT_LT(file.size(), 2000u);
+        for (size_t n = 0; n < file.size(); ++n) {
+            write_bytes(cut, Bytes(file.begin(), file.begin() + static_cast<std::ptrdiff_t>(n)));
+            const Decoded d = decode(cut);
+            const size_t whole = static_cast<size_t>(
+                std::count_if(ends.begin(), ends.end(), [&](uint64_t e) { return e <= n; }));
+            ASSERT_EQ(d.frames.size(), whole) << "cut at " << n << ": " << d.damage;
+            bool inside_group = false;
+            for (size_t t = 0; t < whole; ++t) {
+                if (low_delay || group_ends[t] <= n) {
+                    ASSERT_EQ(d.frames[t].planes, full.frames[t].planes) << "cut at " << n;
+                } else {
+                    inside_group = true;
+                    ASSERT_EQ(d.frames[t].width, 48);
+                    ASSERT_GT(psnr(full.frames[t], d.frames[t]).all, 10) << "cut at " << n;
+                }
+            }
+            // Whole chunks only (and no group cut short), or a whole index with a cut trailer.
+            const bool clean =
+                (std::find(boundaries.begin(), boundaries.end(), n) != boundaries.end() &&
+                 !inside_group) ||
+                n >= file.size() - kTwvTrailerBytes;
+            EXPECT_EQ(d.damage.empty(), clean) << "cut at " << n << ": " << d.damage;
+        }
+        fs::remove(path);
+        fs::remove(cut);
     }
-    fs::remove(path);
-    fs::remove(cut);
 }
 
 // The decoder reads a file and bytes in memory alike, cut anywhere: same frames, same messages.
 TEST(TwvRobustness, BytesInMemoryDecodeAsTheFileDoes) {
     const std::string path = temp_path("memory_source.twv"), cut = temp_path("memory_cut.twv");
-    const Bytes file = small_file(path);
+    const Bytes file = small_file(path, false);
     for (size_t n = 0; n <= file.size(); n += 7) {
         const Bytes prefix(file.begin(), file.begin() + static_cast<std::ptrdiff_t>(n));
         write_bytes(cut, prefix);
@@ -129,33 +161,39 @@ TEST(TwvRobustness, BytesInMemoryDecodeAsTheFileDoes) {
 }
 
 TEST(TwvRobustness, EveryFlippedByteDecodesOrStopsWithAMessage) {
-    const std::string path = temp_path("flip_source.twv"), flipped = temp_path("flip.twv");
-    const Bytes file = small_file(path);
-    const Decoded full = decode(path);
-    const std::vector<uint64_t> ends = frame_ends(file);
-    int stopped = 0, complete = 0;
-    for (size_t i = 0; i < file.size(); ++i) {
-        for (uint8_t mask : {uint8_t{0xFF}, uint8_t{0x10}}) {
-            Bytes b = file;
-            b[i] ^= mask;
-            write_bytes(flipped, b);
-            const Decoded d = decode(flipped);
-            // Frames before the damaged chunk are decoded exactly; a flip in the index or the
-            // trailer only costs the index.
-            ASSERT_LE(d.frames.size(), full.frames.size());
-            for (size_t t = 0; t < d.frames.size(); ++t) {
-                ASSERT_EQ(d.frames[t].planes, full.frames[t].planes) << "byte " << i;
+    for (bool low_delay : {true, false}) {
+        SCOPED_TRACE(low_delay ? "low delay" : "lifted");
+        const std::string path = temp_path("flip_source.twv"), flipped = temp_path("flip.twv");
+        const Bytes file = small_file(path, low_delay);
+        const Decoded full = decode(path);
+        std::vector<uint64_t> group_ends;
+        const std::vector<uint64_t> ends = frame_ends(file, nullptr, &group_ends);
+        int stopped = 0, complete = 0;
+        for (size_t i = 0; i < file.size(); ++i) {
+            for (uint8_t mask : {uint8_t{0xFF}, uint8_t{0x10}}) {
+                Bytes b = file;
+                b[i] ^= mask;
+                write_bytes(flipped, b);
+                const Decoded d = decode(flipped);
+                // Frames before the damaged chunk (lifted: in groups before it) are decoded
+                // exactly; a flip in the index or the trailer only costs the index.
+                ASSERT_LE(d.frames.size(), full.frames.size());
+                for (size_t t = 0; t < d.frames.size(); ++t) {
+                    if (low_delay || group_ends[t] <= i) {
+                        ASSERT_EQ(d.frames[t].planes, full.frames[t].planes) << "byte " << i;
+                    }
+                }
+                const size_t before = static_cast<size_t>(
+                    std::count_if(ends.begin(), ends.end(), [&](uint64_t e) { return e <= i; }));
+                EXPECT_GE(d.frames.size(), std::min(before, full.frames.size())) << "byte " << i;
+                (d.damage.empty() ? complete : stopped)++;
             }
-            const size_t before = static_cast<size_t>(
-                std::count_if(ends.begin(), ends.end(), [&](uint64_t e) { return e <= i; }));
-            EXPECT_GE(d.frames.size(), std::min(before, full.frames.size())) << "byte " << i;
-            (d.damage.empty() ? complete : stopped)++;
         }
+        EXPECT_GT(stopped, 0);
+        EXPECT_GT(complete, 0);  // index and trailer flips
+        fs::remove(path);
+        fs::remove(flipped);
     }
-    EXPECT_GT(stopped, 0);
-    EXPECT_GT(complete, 0);  // index and trailer flips
-    fs::remove(path);
-    fs::remove(flipped);
 }
 
 TEST(TwvRobustness, ForeignAndEmptyFilesAreRefused) {
@@ -269,20 +307,22 @@ TEST(TwvRobustness, ASmallFileClaimsNoMoreThanItsBytesJustify) {
 
 TEST(TwvRobustness, SkimmingSeesTheFramesThatDecodingSees) {
     const std::string path = temp_path("skim.twv");
-    small_file(path);
-    VideoDecoder decoding(path), skimming(path);
-    Image frame;
-    int frames = 0;
-    while (decoding.read(frame, false)) {
-        ASSERT_TRUE(skimming.skim());
-        EXPECT_EQ(skimming.info().number, decoding.info().number);
-        EXPECT_EQ(skimming.info().kind, decoding.info().kind);
-        EXPECT_EQ(skimming.info().bytes, decoding.info().bytes);
-        EXPECT_EQ(skimming.info().motion_bytes, decoding.info().motion_bytes);
-        ++frames;
+    for (bool low_delay : {true, false}) {
+        small_file(path, low_delay);
+        VideoDecoder decoding(path), skimming(path);
+        Image frame;
+        int frames = 0;
+        while (decoding.read(frame, false)) {
+            ASSERT_TRUE(skimming.skim());
+            EXPECT_EQ(skimming.info().number, decoding.info().number);
+            EXPECT_EQ(skimming.info().kind, decoding.info().kind);
+            EXPECT_EQ(skimming.info().bytes, decoding.info().bytes);
+            EXPECT_EQ(skimming.info().motion_bytes, decoding.info().motion_bytes);
+            ++frames;
+        }
+        EXPECT_FALSE(skimming.skim());
+        EXPECT_EQ(frames, 5);
     }
-    EXPECT_FALSE(skimming.skim());
-    EXPECT_EQ(frames, 5);
     fs::remove(path);
 }
 

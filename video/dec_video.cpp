@@ -10,10 +10,11 @@
 namespace tesswave::video {
 namespace {
 
+// Whether two groups code alike (motion and the lifted length aside): the domain can be kept.
 bool same_domain(const TwvGroup& a, const TwvGroup& b) {
-    return a.transform == b.transform && a.levels == b.levels && a.motion == b.motion &&
-           a.grid_cols == b.grid_cols && a.grid_rows == b.grid_rows &&
-           a.channel_factors == b.channel_factors && a.band_norms == b.band_norms;
+    return a.transform == b.transform && a.levels == b.levels && a.grid_cols == b.grid_cols &&
+           a.grid_rows == b.grid_rows && a.channel_factors == b.channel_factors &&
+           a.band_norms == b.band_norms;
 }
 
 }  // namespace
@@ -135,31 +136,40 @@ void VideoDecoder::start_group(const Chunk& chunk) {
     in_group_ = true;
 }
 
-void VideoDecoder::decode_frame(const Chunk& chunk, Image* out) {
-    const std::string what = str(path_, ": frame ", next_frame_);
+TwvFrame VideoDecoder::frame_of(const Chunk& chunk, const std::string& what) const {
     if (!in_group_) throw Error(str(what, " comes before any group"));
     TwvFrame f = read_twv_frame(chunk.payload, group_, header_, what);
     if (f.number != next_frame_) throw Error(str(what, ": the chunk says frame ", f.number));
     const bool first = next_frame_ == group_.first_frame;
-    if (first != (f.kind == TwvFrameKind::intra)) {
+    if (group_.lifted > 0) {
+        if (next_frame_ >= group_.first_frame + group_.lifted) {
+            throw Error(str(what, " lies past its group's ", group_.lifted, " frames"));
+        }
+    } else if (first != (f.kind == TwvFrameKind::intra)) {
         throw Error(str(what, first ? " must be an intra frame" : " is an unexpected intra frame"));
     }
-    std::vector<Vec2> vertices;
-    if (domain_->is_mesh()) {
-        const std::vector<Vec2>& rest = domain_->shape().mesh.vertices;
-        if (group_.motion == TwvMotion::tracked) {
-            const bool two_back = next_frame_ >= group_.first_frame + 2;
-            const std::vector<Vec2>& from = first ? rest : vertices_;
-            vertices = f.motion.empty() ? from
-                                        : decode_motion(f.motion, from,
-                                                        two_back ? std::span<const Vec2>(previous_)
-                                                                 : std::span<const Vec2>(),
-                                                        domain_->shape().mesh, what);
-        } else {
-            vertices = rest;
-        }
-    }
-    if (first) coefficients_ = domain_->zeros();
+    return f;
+}
+
+// The frame's vertex positions from its motion and the frames before (vertices_, previous_).
+std::vector<Vec2> VideoDecoder::frame_vertices(const TwvFrame& f, const std::string& what) const {
+    if (!domain_->is_mesh()) return {};
+    const std::vector<Vec2>& rest = domain_->shape().mesh.vertices;
+    if (group_.motion != TwvMotion::tracked) return rest;
+    const bool first = next_frame_ == group_.first_frame;
+    const bool two_back = next_frame_ >= group_.first_frame + 2;
+    const std::vector<Vec2>& from = first ? rest : vertices_;
+    if (f.motion.empty()) return from;
+    return decode_motion(f.motion, from,
+                         two_back ? std::span<const Vec2>(previous_) : std::span<const Vec2>(),
+                         domain_->shape().mesh, what);
+}
+
+void VideoDecoder::decode_frame(const Chunk& chunk, Image* out) {
+    const std::string what = str(path_, ": frame ", next_frame_);
+    TwvFrame f = frame_of(chunk, what);
+    std::vector<Vec2> vertices = frame_vertices(f, what);
+    if (next_frame_ == group_.first_frame) coefficients_ = domain_->zeros();
     add_decoded_residual(*domain_, f, coefficients_);
     previous_ = std::move(vertices_);
     vertices_ = std::move(vertices);
@@ -169,6 +179,54 @@ void VideoDecoder::decode_frame(const Chunk& chunk, Image* out) {
              .motion_bytes = static_cast<int64_t>(f.motion.size())};
     if (out) domain_->synthesize(coefficients_, vertices_, *out);
     ++next_frame_;
+}
+
+// Reads the chunks of the lifted group that starts at position_ (without moving position_), as
+// many as arrive intact, and inverts the temporal transform.
+void VideoDecoder::load_lifted_group() {
+    Lifted g;
+    std::vector<TwvFrame> bands;
+    const int64_t saved_next = next_frame_;
+    uint64_t at = position_;
+    for (int t = 0; t < group_.lifted; ++t) {
+        const std::string what = str(path_, ": frame ", next_frame_);
+        std::optional<Chunk> chunk = read_chunk(at);
+        if (!chunk) {
+            // A clean end right after the group chunk is a clip that ends there, as in a low-delay
+            // group; an end after some of its frames cuts the group short.
+            if (!damage_.empty() || t > 0) {
+                g.damage =
+                    damage_.empty() ? str(what, ": the file ends inside its group") : damage_;
+            }
+            damage_.clear();
+            break;
+        }
+        try {
+            if (chunk->tag != 'F') {
+                throw Error(
+                    str(what, ": the group ends after ", t, " of its ", group_.lifted, " frames"));
+            }
+            TwvFrame f = frame_of(*chunk, what);
+            std::vector<Vec2> vertices = frame_vertices(f, what);
+            previous_ = std::move(vertices_);
+            vertices_ = vertices;
+            g.vertices.push_back(std::move(vertices));
+            g.info.push_back({.number = f.number,
+                              .kind = f.kind,
+                              .bytes = static_cast<int64_t>(chunk->end - chunk->offset),
+                              .motion_bytes = static_cast<int64_t>(f.motion.size())});
+            g.ends.push_back(chunk->end);
+            bands.push_back(std::move(f));
+        } catch (const Error& e) {
+            g.damage = e.what();
+            break;
+        }
+        at = chunk->end;
+        ++next_frame_;
+    }
+    next_frame_ = saved_next;
+    if (!bands.empty()) g.coefficients = decode_lifted_group(*domain_, bands, group_.lifted);
+    lifted_ = std::move(g);
 }
 
 bool VideoDecoder::read(Image& out, bool render) {
@@ -185,24 +243,49 @@ bool VideoDecoder::next_frame(Image* out, bool decode) {
     if (!damage_.empty()) return false;
     try {
         for (;;) {
+            if (lifted_) {  // hand out the group's next frame
+                Lifted& g = *lifted_;
+                if (g.next < g.ends.size()) {
+                    const size_t t = g.next++;
+                    info_ = g.info[t];
+                    vertices_ = g.vertices[t];
+                    previous_ = t > 0 ? g.vertices[t - 1] : std::vector<Vec2>{};
+                    if (out) domain_->synthesize(g.coefficients[t], vertices_, *out);
+                    position_ = g.ends[t];
+                    ++next_frame_;
+                    return true;
+                }
+                const std::string why = g.damage;
+                lifted_.reset();
+                in_group_ = false;  // a group's frames end with it
+                if (!why.empty()) {
+                    damage_ = why;
+                    return false;
+                }
+            }
             std::optional<Chunk> chunk = read_chunk(position_);
             if (!chunk) return false;
             if (chunk->tag == 'I') return false;  // an index whose trailer was cut off
             if (chunk->tag == 'G') {
                 start_group(*chunk);
-            } else if (chunk->tag == 'F') {
+                position_ = chunk->end;
+                if (decode && group_.lifted > 0) load_lifted_group();
+                continue;
+            }
+            if (chunk->tag == 'F') {
                 if (decode) {
+                    if (group_.lifted > 0) {
+                        throw Error(str(path_, ": frame ", next_frame_, " lies past its group"));
+                    }
                     decode_frame(*chunk, out);
                 } else {
                     describe_frame(*chunk);
                 }
                 position_ = chunk->end;
                 return true;
-            } else {
-                throw Error(str(path_, ": unknown chunk '", static_cast<int>(chunk->tag),
-                                "' at byte ", chunk->offset));
             }
-            position_ = chunk->end;
+            throw Error(str(path_, ": unknown chunk '", static_cast<int>(chunk->tag), "' at byte ",
+                            chunk->offset));
         }
     } catch (const Error& e) {
         damage_ = e.what();
@@ -212,13 +295,7 @@ bool VideoDecoder::next_frame(Image* out, bool decode) {
 
 void VideoDecoder::describe_frame(const Chunk& chunk) {
     const std::string what = str(path_, ": frame ", next_frame_);
-    if (!in_group_) throw Error(str(what, " comes before any group"));
-    const TwvFrame f = read_twv_frame(chunk.payload, group_, header_, what);
-    if (f.number != next_frame_) throw Error(str(what, ": the chunk says frame ", f.number));
-    const bool first = next_frame_ == group_.first_frame;
-    if (first != (f.kind == TwvFrameKind::intra)) {
-        throw Error(str(what, first ? " must be an intra frame" : " is an unexpected intra frame"));
-    }
+    const TwvFrame f = frame_of(chunk, what);
     info_ = {.number = f.number,
              .kind = f.kind,
              .bytes = static_cast<int64_t>(chunk.end - chunk.offset),
@@ -239,12 +316,14 @@ bool VideoDecoder::seek(int64_t frame) {
             position_ = index_->group_offsets[g];
             next_frame_ = first[g];
             in_group_ = false;
+            lifted_.reset();
             damage_.clear();
         }
     } else if (next_frame_ > frame) {
         position_ = header_bytes_;
         next_frame_ = 0;
         in_group_ = false;
+        lifted_.reset();
         damage_.clear();
     }
     Image skipped;

@@ -1,8 +1,11 @@
-// The .twv decoder (DESIGN.md 4): reads a clip chunk by chunk, keeps the previous frame's decoded
-// coefficients and vertex positions, adds each delta frame's residual and renders the frame on
-// its mesh. Needs neither tracking nor fitting. Memory holds one group's domain and one frame's
-// coefficients, whatever the clip's length. A cut or damaged file decodes up to its last whole,
-// intact frame; damage() then says where and why.
+// The .twv decoder (DESIGN.md 4): reads a clip chunk by chunk. In a low-delay group it keeps the
+// previous frame's decoded coefficients and vertex positions and adds each delta frame's residual;
+// a lifted group is read whole when it starts (its temporal bands and each frame's motion), then
+// inverted along time (temporal.h), and its frames are rendered one by one. Needs neither
+// tracking nor fitting. Memory holds one group's domain and one group's coefficients (within
+// TwvLimits::max_group_bytes), whatever the clip's length. A cut or damaged file decodes up to its
+// last whole, intact frame (in a lifted group, every frame whose chunk arrived, the missing bands
+// taken as zero); damage() then says where and why.
 #pragma once
 
 #include <cstdint>
@@ -74,7 +77,22 @@ class VideoDecoder {
     void decode_frame(const Chunk& chunk, Image* out);
     bool next_frame(Image* out, bool decode);
     void describe_frame(const Chunk& chunk);
+    // Checks a frame chunk's number and kind against the group; throws Error.
+    TwvFrame frame_of(const Chunk& chunk, const std::string& what) const;
+    std::vector<Vec2> frame_vertices(const TwvFrame& f, const std::string& what) const;
+    void load_lifted_group();
     bool skimmed_ = false;
+
+    // A lifted group, read whole: each frame's coefficients, vertices, description and chunk end.
+    struct Lifted {
+        std::vector<Planes> coefficients;
+        std::vector<std::vector<Vec2>> vertices;
+        std::vector<TwvFrameInfo> info;
+        std::vector<uint64_t> ends;
+        size_t next = 0;     // the next frame to hand out
+        std::string damage;  // why the group ended early (after its received frames)
+    };
+    std::optional<Lifted> lifted_;
 
     std::string path_;
     TwvLimits limits_;

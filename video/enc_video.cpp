@@ -57,18 +57,15 @@ TwvGroup choose_group(const TwvHeader& h, const VideoEncodeOptions& o) {
     return g;
 }
 
-// Dead-zone quantization of every channel with the group's steps.
-IntPlanes quantize_planes(const CodingDomain& domain, const Planes& r, float base_step) {
-    IntPlanes q(r.size(), std::vector<int32_t>(domain.size(), 0));
-    for (size_t c = 0; c < r.size(); ++c) {
-        quantize(domain.layout(), r[c], domain.band_steps(static_cast<int>(c), base_step), q[c]);
+// Whether band b is one of the finest detail bands: the last mesh step's edge and face points,
+// or the grid's level-1 detail.
+bool finest_band(const CodingLayout& layout, const CodingBand& b) {
+    if (b.type == 'e' || b.type == 'f') {
+        int finest = -1;
+        for (const CodingBand& other : layout.bands) finest = std::max(finest, other.level);
+        return b.level == finest;
     }
-    return q;
-}
-
-template <class T>
-std::vector<std::span<const T>> const_spans(const std::vector<std::vector<T>>& planes) {
-    return {planes.begin(), planes.end()};
+    return b.level == 1 && b.type != 'L';
 }
 
 }  // namespace
@@ -96,6 +93,8 @@ VideoEncoder::VideoEncoder(const std::string& path, int width, int height, doubl
     fps_fraction(fps, header_);
     group_ = choose_group(header_, o);
     domain_ = std::make_unique<CodingDomain>(group_domain(header_, group_, true));
+    group_length_ =
+        o.low_delay ? o.group : std::min(o.group, twv_max_lifted_frames(group_, header_));
     for (const CodingBand& b : domain_->layout().bands) {
         group_.band_norms.push_back(static_cast<float>(b.norm));
     }
@@ -153,38 +152,62 @@ int64_t VideoEncoder::frame_budget(bool intra, uint64_t spent) const {
     return static_cast<int64_t>(std::floor(std::max(budget, 0.25 * share)));
 }
 
-// The base step whose intra image reaches the target PSNR: bisection on log2 of the step, each
-// probe quantized and dequantized directly (what a fully decoded intra frame holds). A target
-// above what the finest step reaches (the mesh's resampling caps the quality) is lowered to
-// 0.25 dB below that ceiling, so that the rate stays finite; quality_target_ says which was used.
+// The coefficients a fully decoded frame holds when `x` is quantized with `base_step`.
+Planes VideoEncoder::requantized(const Planes& x, float base_step) const {
+    // Every plane known: the decoder's reconstruction of a fully decoded frame.
+    const DecodedPlanes d{.value = quantize_planes(x, base_step),
+                          .known = std::vector<std::vector<uint8_t>>(
+                              x.size(), std::vector<uint8_t>(domain_->size(), 0)),
+                          .complete = true};
+    Planes y = domain_->zeros();
+    for (size_t c = 0; c < y.size(); ++c) {
+        const int channel = static_cast<int>(c);
+        dequantize(domain_->layout(), d, channel, domain_->band_steps(channel, base_step), false,
+                   y[c]);
+    }
+    return y;
+}
+
+// The base step at which `psnr_at` (a falling function of the step) reaches the target PSNR:
+// bisection on log2 of the step. A target above what the finest step reaches (the mesh's
+// resampling caps the quality) is lowered to 0.25 dB below that ceiling, so that the rate stays
+// finite; quality_target_ says which was used.
+float VideoEncoder::step_for_quality(const std::function<double(float)>& psnr_at) {
+    double lo = -14, hi = 0;  // log2 of the step
+    const double ceiling = psnr_at(static_cast<float>(std::exp2(lo)));
+    quality_target_ = std::min(options_.quality, ceiling - 0.25);
+    for (int i = 0; i < 11; ++i) {
+        const double mid = 0.5 * (lo + hi);
+        (psnr_at(static_cast<float>(std::exp2(mid))) >= quality_target_ ? lo : hi) = mid;
+    }
+    return static_cast<float>(std::exp2(lo));
+}
+
+// Low delay: the base step whose intra image reaches the target PSNR.
 float VideoEncoder::calibrate_step(const Image& frame) {
     Planes x;
     domain_->analyze(frame, vertices_, x, options_.sampling, options_.projection);
     Image image;
-    const auto psnr_at = [&](double log_step) {
-        const float step = static_cast<float>(std::exp2(log_step));
-        // Every plane known: the decoder's reconstruction of a fully decoded frame.
-        DecodedPlanes d{.value = quantize_planes(*domain_, x, step),
-                        .known = std::vector<std::vector<uint8_t>>(
-                            x.size(), std::vector<uint8_t>(domain_->size(), 0)),
-                        .complete = true};
-        Planes y = domain_->zeros();
-        for (size_t c = 0; c < y.size(); ++c) {
-            const int channel = static_cast<int>(c);
-            dequantize(domain_->layout(), d, channel, domain_->band_steps(channel, step), false,
-                       y[c]);
-        }
-        domain_->synthesize(std::move(y), vertices_, image);
+    return step_for_quality([&](float step) {
+        domain_->synthesize(requantized(x, step), vertices_, image);
         return psnr(frame, image).all;
-    };
-    double lo = -14, hi = 0;  // log2 of the step
-    const double ceiling = psnr_at(lo);
-    quality_target_ = std::min(options_.quality, ceiling - 0.25);
-    for (int i = 0; i < 11; ++i) {
-        const double mid = 0.5 * (lo + hi);
-        (psnr_at(mid) >= quality_target_ ? lo : hi) = mid;
+    });
+}
+
+// Dead-zone quantization of every channel with the group's steps; with 4:2:0 chroma, the finest
+// detail of Cb and Cr is left out.
+IntPlanes VideoEncoder::quantize_planes(const Planes& r, float base_step) const {
+    const CodingLayout& layout = domain_->layout();
+    IntPlanes q(r.size(), std::vector<int32_t>(domain_->size(), 0));
+    for (size_t c = 0; c < r.size(); ++c) {
+        quantize(layout, r[c], domain_->band_steps(static_cast<int>(c), base_step), q[c]);
+        if (!options_.chroma_420 || c == 0 || c > 2) continue;
+        for (const CodingBand& b : layout.bands) {
+            if (!finest_band(layout, b)) continue;
+            for (int32_t k = b.begin; k < b.end; ++k) q[c][layout.order[k]] = 0;
+        }
     }
-    return static_cast<float>(std::exp2(lo));
+    return q;
 }
 
 void VideoEncoder::start_group(int64_t number) {
@@ -200,7 +223,7 @@ std::vector<uint8_t> VideoEncoder::code_frame(const Image& frame, TwvFrame& f, i
     for (size_t c = 0; c < residual_.size(); ++c) {
         for (size_t i = 0; i < residual_[c].size(); ++i) residual_[c][i] -= coefficients_[c][i];
     }
-    const IntPlanes q = quantize_planes(*domain_, residual_, f.base_step);
+    const IntPlanes q = quantize_planes(residual_, f.base_step);
     f.planes = count_planes(domain_->layout(), const_spans(q));
     BitplaneOptions bo{.shifts = std::vector<int>(domain_->layout().bands.size(), 0)};
     if (budget >= 0) {
@@ -218,7 +241,7 @@ std::vector<uint8_t> VideoEncoder::code_frame(const Image& frame, TwvFrame& f, i
     return twv_chunk('F', write_twv_frame(f, group_));
 }
 
-EncodedFrame VideoEncoder::encode(const Image& frame) {
+std::vector<EncodedFrame> VideoEncoder::encode(const Image& frame) {
     if (finished_) throw Error("the encoder has finished");
     if (frame.width != header_.width || frame.height != header_.height) {
         throw Error(str("frame ", frames_, " is ", frame.width, "x", frame.height, ", the clip is ",
@@ -232,7 +255,7 @@ EncodedFrame VideoEncoder::encode(const Image& frame) {
         motion_->track(frame);
     }
     const Mesh* rest = mesh();
-    bool intra = frames_ == 0 || in_group_ >= options_.group;
+    bool intra = frames_ == 0 || in_group_ >= group_length_;
     std::vector<Vec2> v;
     if (!intra && motion_) {
         // The temporal term pulls towards constant velocity (no lag on steady motion) when that
@@ -263,20 +286,19 @@ EncodedFrame VideoEncoder::encode(const Image& frame) {
         }
         intra = !info.new_group.empty();
     }
+    std::vector<EncodedFrame> done;
+    if (intra && !pending_.empty()) done = code_lifted_group();
     // Groups start at the rest mesh.
     if (intra || (rest && !motion_)) {
         v = rest ? rest->vertices : std::vector<Vec2>{};
     }
     const uint64_t start = written_;
-    if (intra) start_group(frames_);
-    TwvFrame f;
-    f.number = frames_;
-    f.kind = intra ? TwvFrameKind::intra : TwvFrameKind::delta;
+    std::vector<uint8_t> motion_bytes;
     if (motion_) {
         const bool two_back = !intra && in_group_ >= 2;
         const std::vector<Vec2>& from = intra ? rest->vertices : vertices_;
         if (v != from) {  // no bytes for a mesh that stays put
-            f.motion = encode_motion(
+            motion_bytes = encode_motion(
                 *rest, v, from,
                 two_back ? std::span<const Vec2>(previous_) : std::span<const Vec2>());
         }
@@ -284,10 +306,42 @@ EncodedFrame VideoEncoder::encode(const Image& frame) {
     }
     previous_ = std::move(vertices_);
     vertices_ = std::move(v);
-    if (intra && options_.quality > 0) {
+    if (intra && options_.quality > 0 && options_.low_delay) {
         report(progress, 0.3, "calibrating");
         base_step_ = calibrate_step(frame);
     }
+    info.quality_target = options_.quality > 0 ? quality_target_ : 0;
+    if (options_.low_delay) {
+        info.motion_bytes = static_cast<int64_t>(motion_bytes.size());
+        if (intra) start_group(frames_);
+        TwvFrame f;
+        f.number = frames_;
+        f.kind = intra ? TwvFrameKind::intra : TwvFrameKind::delta;
+        f.motion = std::move(motion_bytes);
+        done.push_back(encode_low_delay(frame, std::move(info), f, start));
+        return done;
+    }
+    report(progress, 0.5, "sampling");
+    Pending p{.frame = frame,
+              .coefficients = {},
+              .vertices = vertices_,
+              .motion = std::move(motion_bytes),
+              .info = {}};
+    domain_->analyze(frame, vertices_, p.coefficients, options_.sampling, options_.projection);
+    p.info = std::move(info);
+    pending_.push_back(std::move(p));
+    in_group_ = intra ? 1 : in_group_ + 1;
+    ++frames_;
+    if (in_group_ >= group_length_) {
+        std::vector<EncodedFrame> group = code_lifted_group();
+        for (EncodedFrame& e : group) done.push_back(std::move(e));
+    }
+    return done;
+}
+
+EncodedFrame VideoEncoder::encode_low_delay(const Image& frame, EncodedFrame info, TwvFrame& f,
+                                            uint64_t start) {
+    const bool intra = f.kind == TwvFrameKind::intra;
     f.base_step = options_.kbps > 0 ? 1.0f / 1024 : base_step_;
     int64_t budget = -1;
     if (options_.kbps > 0) {
@@ -300,23 +354,31 @@ EncodedFrame VideoEncoder::encode(const Image& frame) {
                             " bytes for the first frame; it needs at least ", floor_bytes));
         }
     }
-    report(progress, 0.5, "coding");
+    report(options_.progress, 0.5, "coding");
     const std::vector<uint8_t> chunk = code_frame(frame, f, budget);
     index_.frame_offsets.push_back(written_);
     write(chunk);
     info.kind = f.kind;
+    info.first_in_group = intra;
     info.bytes = static_cast<int64_t>(written_ - start);
     info.motion_bytes = static_cast<int64_t>(f.motion.size());
     info.psnr = psnr(frame, reconstruction_).all;
-    info.quality_target = options_.quality > 0 ? quality_target_ : 0;
+    info.reconstruction = reconstruction_;
     in_group_ = intra ? 1 : in_group_ + 1;
     ++frames_;
+    coded_frames_ = frames_;
     return info;
+}
+
+std::vector<EncodedFrame> VideoEncoder::flush() {
+    if (finished_) throw Error("the encoder has finished");
+    return pending_.empty() ? std::vector<EncodedFrame>{} : code_lifted_group();
 }
 
 int64_t VideoEncoder::finish() {
     if (finished_) throw Error("the encoder has finished");
     if (frames_ == 0) throw Error(str(path_, ": no frames to write"));
+    flush();
     const uint64_t index_offset = written_;
     write(twv_chunk('I', write_twv_index(index_)));
     write(twv_trailer(index_offset));

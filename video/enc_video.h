@@ -1,14 +1,21 @@
 // The .twv encoder (DESIGN.md 4). Each group of frames shares one coding domain: a grid mesh T0
 // (whose vertices follow the content, or stay put with motion none) or the fixed grid on the
-// pixel lattice. A group starts with an intra frame; every later frame codes the delta between its
-// coefficients and the decoded coefficients of the frame before, closed loop: the encoder decodes
-// its own bit-planes exactly as the decoder will, so reconstruction() equals the decoder's output
-// bit for bit and errors never drift. Vertex motion is side information inside each frame chunk.
+// pixel lattice. Vertex motion is side information inside each frame chunk.
 //
-// Rate control: --kbps gives every frame a byte budget from a leaky bucket (an intra frame
-// intra_weight times a delta frame's share) and cuts its embedded stream there; --psnr picks
-// the base step of each group by bisection so that its intra frame reaches the target PSNR, and
-// keeps that step (every bit-plane coded) for the group's deltas.
+// By default a group is lifted (temporal.h): its frames' coefficients on the moving mesh are
+// buffered, transformed along time with the 5/3, and every temporal band is coded as an embedded
+// bit-plane stream. --kbps gives the group its share of the rate and cuts all its streams at one
+// rate-distortion slope (allocation.h), so the rate lands on the target; --psnr quantizes every
+// band with the step at which the group's mean PSNR reaches the target (measured on every
+// fourth frame), and keeps every bit-plane. Frames come
+// out of encode() when their group is coded (a group's length of latency).
+//
+// With low_delay, a group starts with an intra frame and every later frame codes the delta
+// between its coefficients and the decoded coefficients of the frame before, closed loop: the
+// encoder decodes its own bit-planes exactly as the decoder will, so errors never drift. --kbps
+// then gives every frame a byte budget from a leaky bucket (an intra frame intra_weight times a
+// delta frame's share). Either way each EncodedFrame's reconstruction equals the decoder's output
+// bit for bit.
 #pragma once
 
 #include <cstdint>
@@ -31,22 +38,27 @@ namespace tesswave::video {
 struct VideoEncodeOptions {
     TwiTransform transform = TwiTransform::mesh;
     TwvMotion motion = TwvMotion::tracked;  // mesh path
-    int motion_level = 0;  // the moving mesh is T_k of the base grid (k levels fewer above it)
-    double density = 2.0;  // mesh samples per pixel (mesh path)
-    int levels = 0;        // J (mesh) or decomposition levels (grid); 0: chosen
-    int group = 32;        // intra period: at most this many frames a group
-    double kbps = 0;       // rate target; > 0 overrides `quality`
+    int motion_level = 0;    // the moving mesh is T_k of the base grid (k levels fewer above it)
+    double density = 2.0;    // mesh samples per pixel (mesh path)
+    int levels = 0;          // J (mesh) or decomposition levels (grid); 0: chosen
+    int group = 32;          // intra period: at most this many frames a group
+    bool low_delay = false;  // closed-loop deltas, one frame of latency, instead of lifting
+    // Code chroma one level coarser (the finest detail bands of Cb and Cr are left out, so the
+    // decoder's inverse transform upsamples them): for 4:2:0 sources.
+    bool chroma_420 = false;
+    double kbps = 0;  // rate target; > 0 overrides `quality`
     // Target PSNR in dB of each group's intra frame, when kbps is 0. The default puts the shared
     // clips near the rates x264's default (CRF 23) gives them: carphone 0.25 bpp against x264's
     // 0.12, aerial 0.41 against 0.31, chaplin 0.078 against 0.081, Big Buck Bunny at 640x360 0.018
     // against 0.066 (29 and 33 dB were further off).
     double quality = 30;
-    double intra_weight = 4;
+    double intra_weight = 4;  // low delay with a rate: an intra frame's share of a delta's
     MeshMotionOptions mesh_motion = {};
-    // How frames go on the mesh (project.h). Point sampling by default: at the rates a video codec
-    // runs at the projection does not pay (carphone, 30 frames, 150 kbit/s: point 29.87 dB; fit
-    // 29.38 dB at smoothness 0.01, 29.47 at 0.03, 29.90 at 0.1, 29.53 at 0.3).
-    Sampling sampling = Sampling::point;
+    // How frames go on the mesh (project.h). The projection by default: with lifted groups it pays
+    // at every rate (carphone, 96 frames, PSNR at 38 / 152 / 304 kbit/s: point 26.70 / 32.17 /
+    // 33.87 dB, fit 26.93 / 33.04 / 35.34). With low-delay deltas it did not (30 frames at 150
+    // kbit/s: point 29.87 dB, fit 29.38 to 29.90 at smoothness 0.01 to 0.3).
+    Sampling sampling = Sampling::fit;
     ProjectOptions projection = {.smoothness = 0.1};
     // Within each encode() call: the fraction of that frame done and its stage (tracking, fitting
     // the mesh, calibrating, coding). The caller maps frames into its bar with progress_range.
@@ -56,6 +68,8 @@ struct VideoEncodeOptions {
 struct EncodedFrame {
     int64_t number = 0;
     TwvFrameKind kind = TwvFrameKind::intra;
+    bool first_in_group = false;
+    bool static_group = false;  // a tracked clip's group coded better on the static mesh
     int64_t bytes = 0;          // everything written for it (group chunk included)
     int64_t motion_bytes = 0;   // vertex motion
     double psnr = 0;            // of reconstruction() against the input
@@ -63,6 +77,7 @@ struct EncodedFrame {
     double fit_rms = 0;         // px
     std::string new_group;      // why this frame starts a group early (empty: it does not)
     double quality_target = 0;  // --psnr: the group's target, lowered where it is out of reach
+    Image reconstruction;       // the decoder's image of the frame
 };
 
 class VideoEncoder {
@@ -73,11 +88,13 @@ class VideoEncoder {
                  const VideoEncodeOptions& options);
     ~VideoEncoder();
 
-    // Codes one frame (width x height, 3 channels).
-    EncodedFrame encode(const Image& frame);
-    // The decoder's image of the frame coded last.
-    const Image& reconstruction() const { return reconstruction_; }
-    // Of the frame coded last (mesh path): the mesh and its vertex positions, and the tracks.
+    // Takes one frame (width x height, 3 channels) and returns the frames this call coded, in
+    // order: none while a lifted group fills, the whole group when it is complete or the frame
+    // starts a new one; exactly this frame in low-delay mode.
+    std::vector<EncodedFrame> encode(const Image& frame);
+    // Codes the frames still buffered and returns them (finish() does it too, and drops them).
+    std::vector<EncodedFrame> flush();
+    // Of the frame given last (mesh path): the mesh and its vertex positions, and the tracks.
     const Mesh* mesh() const;
     std::span<const Vec2> vertices() const { return vertices_; }
     const std::vector<Track>* tracks() const;
@@ -88,8 +105,34 @@ class VideoEncoder {
     const TwvGroup& group() const { return group_; }
 
   private:
+    // A frame of a lifted group, waiting for the group to be coded.
+    struct Pending {
+        Image frame;
+        Planes coefficients;
+        std::vector<Vec2> vertices;
+        std::vector<uint8_t> motion;
+        EncodedFrame info;
+    };
     void start_group(int64_t number);
+    EncodedFrame encode_low_delay(const Image& frame, EncodedFrame info, TwvFrame& f,
+                                  uint64_t start);
     std::vector<uint8_t> code_frame(const Image& frame, TwvFrame& f, int64_t budget);
+    // A lifted group coded one way (enc_group.cpp).
+    struct GroupCoding {
+        TwvGroup group;
+        std::vector<TwvFrame> frames;
+        std::vector<Image> images;  // the decoder's
+        double squared_error = 0;
+        size_t bytes = 0;
+        float next_fine_step = 1.0f / 256;
+        double quality_target = 0;  // --psnr: the group's
+    };
+    GroupCoding code_group(std::vector<Planes> x, const std::vector<std::vector<Vec2>>& vertices,
+                           const std::vector<std::vector<uint8_t>>& motion, TwvMotion kind);
+    std::vector<EncodedFrame> code_lifted_group();
+    IntPlanes quantize_planes(const Planes& r, float base_step) const;
+    Planes requantized(const Planes& x, float base_step) const;
+    float step_for_quality(const std::function<double(float)>& psnr_at);
     void write(const std::vector<uint8_t>& bytes);
     float calibrate_step(const Image& frame);
     double frame_share(bool intra) const;
@@ -105,8 +148,11 @@ class VideoEncoder {
     std::unique_ptr<MeshMotion> motion_;
     TwvIndex index_;
     uint64_t written_ = 0;
-    int64_t frames_ = 0, in_group_ = 0;
+    int64_t frames_ = 0, in_group_ = 0, group_length_ = 0;
+    int64_t coded_frames_ = 0;  // frames whose chunks are written
     float base_step_ = 1.0f / 1024;
+    float fine_step_ = 1.0f / 256;  // lifted groups with a rate: the step the cuts start from
+    std::vector<Pending> pending_;
     double quality_target_ = 0;
     Planes coefficients_, residual_;
     std::vector<Vec2> vertices_, previous_;

@@ -4,6 +4,7 @@
 #include "core/math/error.h"
 #include "core/math/grid_mesh.h"
 #include "mesh_motion.h"
+#include "temporal.h"
 
 namespace tesswave::video {
 
@@ -39,6 +40,17 @@ void add_decoded_residual(const CodingDomain& domain, const TwvFrame& frame, Pla
         dequantize(layout, d, channel, domain.band_steps(channel, frame.base_step), false, r);
         for (int32_t i = 0; i < layout.size; ++i) x[c][i] += r[i];
     }
+}
+
+std::vector<Planes> decode_lifted_group(const CodingDomain& domain, std::span<const TwvFrame> bands,
+                                        int frames) {
+    if (frames < 1 || bands.size() > static_cast<size_t>(frames)) {
+        throw Error("lifted group: more bands than frames");
+    }
+    std::vector<Planes> x(static_cast<size_t>(frames), domain.zeros());
+    for (size_t t = 0; t < bands.size(); ++t) add_decoded_residual(domain, bands[t], x[t]);
+    temporal_inverse(x, temporal_levels(frames));
+    return x;
 }
 
 }  // namespace tesswave::video

@@ -4,12 +4,21 @@
 // positions. One topology, many position sets.
 #pragma once
 
+#include <span>
+#include <vector>
+
 #include "core/codec/coding_domain.h"
 #include "twv_format.h"
 
 namespace tesswave::video {
 
 using tesswave::Planes;
+
+// Read-only spans of each plane, as the bit-plane coder takes them.
+template <class T>
+std::vector<std::span<const T>> const_spans(const std::vector<std::vector<T>>& planes) {
+    return {planes.begin(), planes.end()};
+}
 
 // Norms are measured (encoder) when `measure_norms`, else taken from the group (decoder).
 CodingDomain group_domain(const TwvHeader& header, const TwvGroup& group, bool measure_norms);
@@ -18,5 +27,11 @@ CodingDomain group_domain(const TwvHeader& header, const TwvGroup& group, bool m
 // frame's decoded coefficients, or zeros for an intra frame): the one step the encoder and the
 // decoder share, so that both hold the same coefficients to the bit.
 void add_decoded_residual(const CodingDomain& domain, const TwvFrame& frame, Planes& coefficients);
+
+// A lifted group's frame coefficients from its temporal bands: bands[t] is slot t, slots from
+// bands.size() up to `frames` (a group cut short) are zero; then the temporal inverse. The one
+// path of the encoder's reconstruction and the decoder.
+std::vector<Planes> decode_lifted_group(const CodingDomain& domain, std::span<const TwvFrame> bands,
+                                        int frames);
 
 }  // namespace tesswave::video

@@ -11,7 +11,7 @@
 namespace tesswave::video {
 namespace {
 
-constexpr uint32_t kVersion = 1;
+constexpr uint32_t kVersion = 2;
 
 void write_u64(ByteWriter& w, uint64_t v) {
     for (int i = 0; i < 8; ++i) w.u8(static_cast<uint8_t>(v >> (8 * i)));
@@ -53,8 +53,10 @@ TwvHeader read_twv_header(std::span<const uint8_t> file, const std::string& name
         if (r.remaining() == 0) r.fail("truncated: not even a file header");
         if (r.u8("magic") != b) r.fail("not a .twv file (bad magic)");
     }
-    if (r.u8("version") != kVersion) r.fail("unsupported .twv version");
+    const uint32_t version = r.u8("version");
+    if (version < 1 || version > kVersion) r.fail(str("unsupported .twv version ", version));
     TwvHeader h;
+    h.version = static_cast<int>(version);
     h.width = static_cast<int>(r.count("width", 1, 16384));
     h.height = static_cast<int>(r.count("height", 1, 16384));
     h.fps_num = static_cast<int>(r.count("fps numerator", 1, 1'000'000));
@@ -101,10 +103,29 @@ std::vector<uint8_t> write_twv_group(const TwvGroup& g) {
     for (float f : g.channel_factors) w.f32(f);
     w.varint(g.band_norms.size());
     for (float n : g.band_norms) w.f32(n);
+    w.varint(g.lifted);
     return std::move(w.data());
 }
 
+int64_t twv_frame_coefficient_bytes(const TwvGroup& g, const TwvHeader& h) {
+    const double samples = g.transform == TwiTransform::mesh
+                               ? grid_samples(g.grid_cols, g.grid_rows, g.levels)
+                               : static_cast<double>(h.width) * h.height;
+    return static_cast<int64_t>(samples) * h.channels * 4;
+}
+
+int twv_max_lifted_frames(const TwvGroup& g, const TwvHeader& h, const TwvLimits& limits) {
+    const int64_t frame = std::max<int64_t>(twv_frame_coefficient_bytes(g, h), 1);
+    return static_cast<int>(
+        std::clamp<int64_t>(limits.max_group_bytes / frame, 1, limits.max_lifted_frames));
+}
+
 std::string twv_group_size_problem(const TwvGroup& g, const TwvHeader& h, const TwvLimits& limits) {
+    if (g.lifted > 0 && g.lifted > twv_max_lifted_frames(g, h, limits)) {
+        return str("a lifted group of ", g.lifted, " frames exceeds the limit of ",
+                   twv_max_lifted_frames(g, h, limits), " (", limits.max_group_bytes,
+                   " bytes of coefficients)");
+    }
     if (g.transform != TwiTransform::mesh) return {};
     if (g.levels < 1 || g.levels > 12) return str("mesh level ", g.levels, " is outside 1..12");
     const double samples = grid_samples(g.grid_cols, g.grid_rows, g.levels);
@@ -144,6 +165,11 @@ TwvGroup read_twv_group(std::span<const uint8_t> payload, const TwvHeader& h,
         if (!(n > 0)) r.fail("band norms must be positive");
         g.band_norms.push_back(n);
     }
+    if (h.version >= 2) {
+        g.lifted = static_cast<int>(r.count("lifted frames", 0, limits.max_lifted_frames));
+        const std::string problem = twv_group_size_problem(g, h, limits);
+        if (!problem.empty()) r.fail(problem);
+    }
     if (r.remaining() != 0) r.fail(str(r.remaining(), " unexpected bytes after the group"));
     return g;
 }
@@ -163,8 +189,17 @@ std::vector<uint8_t> write_twv_frame(const TwvFrame& f, const TwvGroup& g) {
         top = std::max(top, *std::max_element(channel.begin(), channel.end()));
     w.u8(top);
     if (top == 0) return std::move(w.data());
-    for (const auto& channel : f.planes) {
-        for (uint8_t p : channel) w.u8(p);
+    // Version 2: with at most 15 planes, two counts a byte (low nibble first).
+    std::vector<uint8_t> counts;
+    for (const auto& channel : f.planes)
+        counts.insert(counts.end(), channel.begin(), channel.end());
+    if (top <= 15) {
+        for (size_t i = 0; i < counts.size(); i += 2) {
+            w.u8(
+                static_cast<uint8_t>(counts[i] | (i + 1 < counts.size() ? counts[i + 1] << 4 : 0)));
+        }
+    } else {
+        for (uint8_t p : counts) w.u8(p);
     }
     w.bytes(f.stream);
     return std::move(w.data());
@@ -175,7 +210,11 @@ TwvFrame read_twv_frame(std::span<const uint8_t> payload, const TwvGroup& g, con
     ByteReader r(payload, what);
     TwvFrame f;
     f.number = static_cast<int64_t>(r.varint("frame number"));
-    f.kind = static_cast<TwvFrameKind>(r.count("frame kind", 0, 1));
+    f.kind = static_cast<TwvFrameKind>(r.count("frame kind", 0, 2));
+    if ((f.kind == TwvFrameKind::band) != (g.lifted > 0)) {
+        r.fail(g.lifted > 0 ? "a lifted group holds temporal bands only"
+                            : "a temporal band outside a lifted group");
+    }
     f.base_step = r.f32("base step");
     if (!(f.base_step > 0)) r.fail("the base step must be positive");
     if (g.transform == TwiTransform::mesh && g.motion == TwvMotion::tracked) {
@@ -191,13 +230,24 @@ TwvFrame read_twv_frame(std::span<const uint8_t> payload, const TwvGroup& g, con
         return f;
     }
     uint32_t largest = 0;
+    const bool packed = h.version >= 2 && top <= 15;
+    uint8_t pair = 0;
+    size_t i = 0;
     for (auto& channel : f.planes) {
         for (uint8_t& p : channel) {
-            p = static_cast<uint8_t>(r.u8("bit-planes"));
+            if (!packed) {
+                p = static_cast<uint8_t>(r.u8("bit-planes"));
+            } else if (i++ % 2 == 0) {
+                pair = static_cast<uint8_t>(r.u8("bit-planes"));
+                p = pair & 15;
+            } else {
+                p = pair >> 4;
+            }
             if (p > top) r.fail("a band has more bit-planes than the frame's largest");
             largest = std::max<uint32_t>(largest, p);
         }
     }
+    if (packed && i % 2 == 1 && (pair >> 4) != 0) r.fail("bad bit-plane count padding");
     if (largest != top) r.fail("no band has the frame's largest bit-plane count");
     const auto rest = r.bytes(r.remaining(), "stream");
     f.stream.assign(rest.begin(), rest.end());

@@ -8,19 +8,24 @@
 //   'G' group: first frame varint | transform u8 (0 mesh, 1 grid 5/3, 2 grid 9/7) | levels u8 |
 //     mesh path: motion u8 (0 static, 1 tracked) | grid columns, rows varint (the T0 mesh is
 //     the grid on [0,W]x[0,H]) | per channel: step factor f32 | band count varint | per band:
-//     norm f32
-//   'F' frame: frame number varint | kind u8 (0 intra, 1 delta) | base step f32 | tracked mesh
+//     norm f32 | version 2: lifted frames varint (0: a low-delay group of an intra frame and
+//     closed-loop deltas; n > 0: n frames lifted along the mesh, temporal.h)
+//   'F' frame: frame number varint | kind u8 (0 intra, 1 delta, 2 temporal band: slot t of a
+//     lifted group, which carries frame t's motion) | base step f32 | tracked mesh
 //     path: motion bytes varint (0: the mesh stays where it was, at rest for an intra frame),
 //     then that many bytes of range-coded vertex motion |
 //     largest bit-plane count u8, and unless it is 0 (nothing to add: the payload ends): per
-//     channel and band, bit-planes u8 | the embedded bit-plane stream (rest of the payload)
+//     channel and band, bit-planes u8 (version 2 with a largest count of at most 15: two a byte,
+//     low nibble first, the last high nibble 0) | the embedded bit-plane stream (rest of the
+//     payload)
 //   'I' index: frame count varint | group count varint | per group: chunk offset (delta from the
 //     previous group's, varint) and first frame varint | per frame: chunk offset (delta from the
 //     previous frame's, varint)
 //   trailer: offset of the index chunk u64 (little-endian) | "TWVE"
 //
 // A file cut anywhere decodes up to its last whole frame chunk (readers scan when the trailer is
-// missing).
+// missing); in a lifted group, the frames whose chunks arrived, the missing bands taken as zero.
+// Version 1 files (no lifted groups) are read as before.
 #pragma once
 
 #include <cstdint>
@@ -41,6 +46,7 @@ struct TwvHeader {
     int width = 0, height = 0;
     int fps_num = 25, fps_den = 1;
     int channels = 3, bit_depth = 8;
+    int version = 2;  // as read; written files are version 2
     double fps() const { return static_cast<double>(fps_num) / fps_den; }
 };
 
@@ -54,9 +60,10 @@ struct TwvGroup {
     int grid_cols = 0, grid_rows = 0;         // mesh path: T0 is grid_mesh(W, H, cols, rows)
     std::vector<float> channel_factors = {};  // per channel
     std::vector<float> band_norms = {};       // per band of the coding layout
+    int lifted = 0;  // frames of a temporally lifted group; 0: low delay (intra, then deltas)
 };
 
-enum class TwvFrameKind : uint8_t { intra = 0, delta = 1 };
+enum class TwvFrameKind : uint8_t { intra = 0, delta = 1, band = 2 };
 
 struct TwvFrame {
     int64_t number = 0;
@@ -83,15 +90,25 @@ struct TwvLimits {
     // pixels; larger frames need a byte of file for each pixels_per_byte pixels of a frame.
     int64_t free_pixels = int64_t{1} << 21;
     int64_t pixels_per_byte = 1024;
+    // A lifted group is held whole: its frames times the coefficients of a frame, 4 bytes each.
+    // The encoder shortens groups to fit.
+    int64_t max_group_bytes = int64_t{512} << 20;
+    int max_lifted_frames = 256;
 };
 
-// Why a group's mesh is too large for the limits (empty: it is not): the one check of the decoder
-// and the encoder.
+// Why a group's mesh (or its lifted frames) is too large for the limits (empty: it is not): the
+// one check of the decoder and the encoder.
 std::string twv_group_size_problem(const TwvGroup& group, const TwvHeader& header,
                                    const TwvLimits& limits = {});
 
 // The bytes a .twv file needs so that `limits` let it have frames of `pixels` pixels.
 int64_t twv_bytes_needed(int64_t pixels, const TwvLimits& limits = {});
+
+// The bytes one frame's coefficients take in memory (all channels).
+int64_t twv_frame_coefficient_bytes(const TwvGroup& group, const TwvHeader& header);
+// The most frames a lifted group may have within the limits (at least 1).
+int twv_max_lifted_frames(const TwvGroup& group, const TwvHeader& header,
+                          const TwvLimits& limits = {});
 
 std::vector<uint8_t> write_twv_header(const TwvHeader& header);
 // `file` holds at least the header; `name` prefixes messages. Returns the header's size in `used`.

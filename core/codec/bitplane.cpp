@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <bit>
 #include <cmath>
+#include <cstdint>
 #include <cstdlib>
 #include <type_traits>
 
@@ -41,6 +42,7 @@ class EncodeSide {
         return value;
     }
     bool stopped() const { return encoder_.size_if_finished() > limit_; }
+    size_t size() const { return encoder_.size_if_finished(); }
     std::vector<uint8_t> finish() { return encoder_.finish(); }
 
   private:
@@ -82,6 +84,9 @@ class Traversal {
         for (size_t c = 0; c < planes_.size(); ++c) {
             for (int b = 0; b < bands; ++b) sweeps = std::max(sweeps, planes_[c][b] + shift(b));
         }
+        std::vector<size_t>* ends = nullptr;
+        if constexpr (std::is_same_v<Side, EncodeSide>) ends = options_.pass_ends;
+        if (ends) ends->assign(3 * static_cast<size_t>(sweeps), SIZE_MAX);
         // Each pass runs over all bands before the next: significance next to significant
         // coefficients gains the most per bit, then refinement, then the isolated rest.
         for (int t = sweeps - 1; t >= 0; --t) {
@@ -92,6 +97,9 @@ class Traversal {
                         if (p < 0 || p >= planes_[c][b]) continue;
                         if (!run_pass(pass, static_cast<int>(c), b, p)) return false;
                     }
+                }
+                if constexpr (std::is_same_v<Side, EncodeSide>) {
+                    if (ends) (*ends)[3 * static_cast<size_t>(t) + pass] = side_.size();
                 }
             }
         }

@@ -27,6 +27,11 @@ struct BitplaneOptions {
     // already carry the norms; lossless coding shifts coarse bands earlier by their norm).
     std::vector<int> shifts;
     size_t max_bytes = std::numeric_limits<size_t>::max();  // the encoder stops past this size
+    // Encoder only, when set: the truncation points. Entry 3 t + pass is the stream's size once
+    // pass `pass` (0 significance near significant, 1 refinement, 2 the rest) of sweep t is
+    // coded; sweeps run from the top down, so sizes grow as t falls. Entries the encoder did not
+    // reach (it stopped at max_bytes) are SIZE_MAX.
+    std::vector<size_t>* pass_ends = nullptr;
 };
 
 // Codes the quantized planes (sign and magnitude in an int32 per coefficient). The result may be

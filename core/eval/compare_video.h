@@ -20,8 +20,10 @@ enum class VideoMethod : uint8_t { moving_mesh, static_mesh, grid53, grid97, sno
 inline constexpr VideoMethod kVideoMethods[] = {
     VideoMethod::moving_mesh, VideoMethod::static_mesh, VideoMethod::grid53, VideoMethod::grid97,
     VideoMethod::snow,        VideoMethod::vc2,         VideoMethod::x264};
-// The method every BD-rate is measured against.
-inline constexpr VideoMethod kBdReference = VideoMethod::grid53;
+// The methods BD-rates are measured against (those of them that ran): our fixed grid, and the
+// peers to beat.
+inline constexpr VideoMethod kBdReferences[] = {VideoMethod::grid53, VideoMethod::snow,
+                                                VideoMethod::x264};
 
 const char* method_id(VideoMethod m);     // for --methods: "moving", "static", "grid53", ...
 const char* method_label(VideoMethod m);  // for tables and plots: "moving mesh", "grid 5/3", ...
@@ -35,6 +37,7 @@ struct ClipInfo {
     double fps = 25;
     int64_t frames = 0;
     int64_t shown_frame = 0;  // the frame in the side-by-side pictures
+    bool chroma_420 = false;  // the source's chroma is subsampled: ours code it one level coarser
     double pixels() const { return static_cast<double>(width) * height * frames; }
 };
 
@@ -46,7 +49,7 @@ struct RunContext {
     std::string scratch_dir;  // where our .twv streams live while they are decoded
     // Called as the run proceeds: fraction of this run done, and what it is doing.
     Progress progress;
-    Sampling sampling = Sampling::point;  // how our mesh methods put frames on the mesh
+    Sampling sampling = Sampling::fit;  // how our mesh methods put frames on the mesh
 };
 
 struct VideoRow {
@@ -72,10 +75,11 @@ double luma_psnr(const Image& reference, const Image& test);
 VideoRow run_video_method(const RunContext& context, VideoMethod method, double target_bpp,
                           Image* shown);
 
-// Bjontegaard rate deltas of one method against kBdReference on one clip, in percent, from the
-// achieved bpp and the mean PSNR-Y and PSNR; NaN with the reason where it cannot be computed.
+// Bjontegaard rate deltas of one method against one of kBdReferences on one clip, in percent,
+// from the achieved bpp and the mean PSNR-Y and PSNR; NaN with the reason where it cannot be
+// computed.
 struct BdRow {
-    std::string clip, method;
+    std::string clip, method, reference;
     double psnr_y = 0, psnr = 0;
     std::string why_not_y, why_not;
 };

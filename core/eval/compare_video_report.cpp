@@ -167,27 +167,23 @@ VideoMethod method_from_id(const std::string& id) {
 
 std::vector<BdRow> bd_rates(const std::vector<ClipInfo>& clips, const std::vector<VideoRow>& rows,
                             const std::vector<VideoMethod>& methods) {
-    const bool has_reference =
-        std::find(methods.begin(), methods.end(), kBdReference) != methods.end();
     std::vector<BdRow> out;
-    for (const ClipInfo& clip : clips) {
-        const auto ref_y = curve(rows, clip.name, kBdReference, true);
-        const auto ref = curve(rows, clip.name, kBdReference, false);
-        for (VideoMethod m : methods) {
-            if (m == kBdReference) continue;
-            BdRow b{clip.name, method_label(m), NAN, NAN, {}, {}};
-            if (!has_reference) {
-                b.why_not_y = b.why_not =
-                    str("the reference ", method_label(kBdReference), " was not run");
-            } else {
+    for (VideoMethod reference : kBdReferences) {
+        if (std::find(methods.begin(), methods.end(), reference) == methods.end()) continue;
+        for (const ClipInfo& clip : clips) {
+            const auto ref_y = curve(rows, clip.name, reference, true);
+            const auto ref = curve(rows, clip.name, reference, false);
+            for (VideoMethod m : methods) {
+                if (m == reference) continue;
+                BdRow b{clip.name, method_label(m), method_label(reference), NAN, NAN, {}, {}};
                 b.psnr_y = bd_or_reason(ref_y, curve(rows, clip.name, m, true), b.why_not_y);
                 b.psnr = bd_or_reason(ref, curve(rows, clip.name, m, false), b.why_not);
-                const std::string failed = failures(rows, clip.name, {kBdReference, m});
+                const std::string failed = failures(rows, clip.name, {reference, m});
                 for (std::string* why : {&b.why_not_y, &b.why_not}) {
                     if (!why->empty() && !failed.empty()) *why = failed + ": " + *why;
                 }
+                out.push_back(std::move(b));
             }
-            out.push_back(std::move(b));
         }
     }
     return out;
@@ -213,7 +209,7 @@ std::string results_csv(const std::vector<VideoRow>& rows) {
 std::string bd_csv(const std::vector<BdRow>& bd) {
     std::string out = str("clip,method,reference,bd_rate_psnr_y,bd_rate_psnr,why_not_y,why_not\n");
     for (const BdRow& b : bd) {
-        out += str(csv_field(b.clip), ",", b.method, ",", method_label(kBdReference), ",",
+        out += str(csv_field(b.clip), ",", b.method, ",", b.reference, ",",
                    number_or_empty(b.psnr_y), ",", number_or_empty(b.psnr), ",",
                    csv_field(b.why_not_y), ",", csv_field(b.why_not), "\n");
     }
@@ -258,7 +254,7 @@ nlohmann::json results_json(const std::vector<ClipInfo>& clips, const std::vecto
     for (const BdRow& b : bd) {
         j["bd_rate"].push_back({{"clip", b.clip},
                                 {"method", b.method},
-                                {"reference", method_label(kBdReference)},
+                                {"reference", b.reference},
                                 {"psnr_y", number_or_null(b.psnr_y)},
                                 {"psnr", number_or_null(b.psnr)},
                                 {"why_not_y", b.why_not_y},
@@ -278,13 +274,30 @@ std::string summary_table(const std::vector<ClipInfo>& clips, const std::vector<
         for (const VideoRow& r : rows) {
             if (r.clip == c.name) s += row_line(r);
         }
-        std::string lines;
+        // One reason for every row (too few rates) is said once.
+        std::vector<const BdRow*> mine;
         for (const BdRow& b : bd) {
-            if (b.clip == c.name) lines += bd_line(b);
+            if (b.clip == c.name) mine.push_back(&b);
         }
-        if (!lines.empty()) {
-            s += str("  BD-rate against ", method_label(kBdReference), "    PSNR-Y      PSNR\n",
-                     lines);
+        const bool one_reason =
+            !mine.empty() && std::all_of(mine.begin(), mine.end(), [&](const BdRow* b) {
+                return std::isnan(b->psnr_y) && std::isnan(b->psnr) &&
+                       b->why_not_y == mine[0]->why_not_y && b->why_not == mine[0]->why_not_y;
+            });
+        if (one_reason) {
+            s += str("  BD-rates: none (", mine[0]->why_not_y, ")\n");
+            continue;
+        }
+        for (VideoMethod reference : kBdReferences) {
+            std::string lines;
+            for (const BdRow* b : mine) {
+                if (b->reference == method_label(reference)) lines += bd_line(*b);
+            }
+            if (lines.empty()) continue;
+            char head[100];
+            std::snprintf(head, sizeof head, "  BD-rate against %-16s    PSNR-Y      PSNR\n",
+                          method_label(reference));
+            s += str(head, lines);
         }
     }
     return s;

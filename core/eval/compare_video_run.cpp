@@ -81,6 +81,7 @@ int64_t encode_ours(const RunContext& c, VideoMethod method, double target_bpp,
                                               ? video::TwvMotion::tracked
                                               : video::TwvMotion::none,
                                 .group = c.group,
+                                .chroma_420 = clip.chroma_420,
                                 .kbps = kbps_for(clip, target_bpp)};
     o.sampling = c.sampling;
     row.setting = str("kbps ", std::lround(o.kbps * 100) / 100.0);
@@ -95,6 +96,7 @@ int64_t encode_ours(const RunContext& c, VideoMethod method, double target_bpp,
         c.progress(0.8 * (n + 1) / clip.frames, "encoding");
     }
     const auto start = Clock::now();
+    encoder.flush();
     const int64_t bytes = encoder.finish();
     row.encode_s = seconds + seconds_since(start);
     return bytes;

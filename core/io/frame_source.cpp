@@ -91,6 +91,7 @@ struct Input {
     double fps = 0;
     int64_t frame_count = -1;
     int64_t trailing_bytes = 0;
+    bool subsampled = false;
 };
 
 class VideoInput : public Input {
@@ -101,6 +102,7 @@ class VideoInput : public Input {
         height = reader_.height();
         fps = reader_.fps();
         frame_count = reader_.frame_count_estimate();
+        subsampled = reader_.chroma_subsampled();
     }
     bool read(Image& frame) override { return reader_.read(frame); }
 
@@ -167,6 +169,7 @@ class RawYuvInput : public Input {
         }
         width = options.width;
         height = options.height;
+        subsampled = format_ == AV_PIX_FMT_YUV420P || format_ == AV_PIX_FMT_YUV422P;
         if (width <= 0 || height <= 0) {
             throw Error(str(path, ": a raw .yuv file needs its frame size (width and height; got ",
                             width, "x", height, ")"));
@@ -261,6 +264,7 @@ FrameSource::FrameSource(FrameSource&&) noexcept = default;
 FrameSource& FrameSource::operator=(FrameSource&&) noexcept = default;
 
 int FrameSource::width() const { return state_->input->width; }
+bool FrameSource::chroma_subsampled() const { return state_->input->subsampled; }
 int FrameSource::height() const { return state_->input->height; }
 double FrameSource::fps() const { return state_->input->fps; }
 int64_t FrameSource::frame_count_estimate() const { return state_->input->frame_count; }

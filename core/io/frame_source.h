@@ -53,6 +53,9 @@ class FrameSource {
     // Raw YUV: the bytes after the last whole frame, which are not read (the caller may warn).
     // 0 for other inputs.
     int64_t trailing_bytes() const;
+    // Whether the source's chroma has fewer samples than its luma (a 4:2:0 or 4:2:2 video file
+    // or raw .yuv); false for image folders and 4:4:4.
+    bool chroma_subsampled() const;
 
     // Fills `frame` with the next frame (3 channels, width() x height()) and returns true, or
     // returns false at the end. Throws Error("<path>: frame 7 is 320x240, the clip is 352x288")

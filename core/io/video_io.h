@@ -120,6 +120,8 @@ class VideoReader {
     int64_t frame_count_estimate() const;
     // 8, or 16 when the stream has more than 8 bits a sample; frames then have format u16.
     int bit_depth() const;
+    // Whether the stream's chroma has fewer samples than its luma (4:2:0, 4:2:2, 4:1:1).
+    bool chroma_subsampled() const;
 
     // Fills `frame` with the next frame (3 channels, width x height) and returns true, or
     // returns false at the end of the clip. Corrupt packets are skipped, as FFmpeg does. Throws

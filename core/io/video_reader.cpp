@@ -58,6 +58,7 @@ struct VideoReader::State {
     int width = 0;
     int height = 0;
     int depth = 8;
+    bool subsampled = false;
     int64_t frames = 0;    // returned so far
     bool pending = false;  // `decoded` holds a frame not yet returned
     bool demuxed = false;  // the demuxer is at its end and the decoder has been told
@@ -191,6 +192,8 @@ VideoReader::VideoReader(const std::string& path, const VideoReaderOptions& opti
     const AVPixFmtDescriptor* d =
         av_pix_fmt_desc_get(static_cast<AVPixelFormat>(s.decoded->format));
     s.depth = d && d->comp[0].depth > 8 ? 16 : 8;
+    s.subsampled = d && !(d->flags & AV_PIX_FMT_FLAG_RGB) && d->nb_components >= 3 &&
+                   (d->log2_chroma_w > 0 || d->log2_chroma_h > 0);
     s.rgb = libav::alloc_frame(s.depth > 8 ? AV_PIX_FMT_GBRP16 : AV_PIX_FMT_GBRP, s.width, s.height,
                                path);
 }
@@ -202,6 +205,7 @@ VideoReader& VideoReader::operator=(VideoReader&&) noexcept = default;
 int VideoReader::width() const { return state_->width; }
 int VideoReader::height() const { return state_->height; }
 int VideoReader::bit_depth() const { return state_->depth; }
+bool VideoReader::chroma_subsampled() const { return state_->subsampled; }
 
 double VideoReader::fps() const {
     const State& s = *state_;

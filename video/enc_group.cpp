@@ -1,0 +1,239 @@
+// The encoder's lifted groups (enc_video.h): temporal transform, embedded streams, one cut, and
+// the choice between the tracked mesh and the static one.
+#include <algorithm>
+#include <cmath>
+
+#include "allocation.h"
+#include "core/codec/bitplane.h"
+#include "core/math/error.h"
+#include "core/math/metrics.h"
+#include "core/math/strings.h"
+#include "enc_video.h"
+#include "temporal.h"
+
+namespace tesswave::video {
+namespace {
+
+bool any_capped(const EmbeddedStream& s) {
+    return std::find(s.pass_ends.begin(), s.pass_ends.end(), SIZE_MAX) != s.pass_ends.end();
+}
+
+// Squared error summed over a frame's samples and channels.
+double squared_error(const Image& a, const Image& b) {
+    double sum = 0;
+    for (size_t c = 0; c < a.planes.size(); ++c) {
+        for (size_t i = 0; i < a.planes[c].size(); ++i) {
+            const double d = double{a.planes[c][i]} - b.planes[c][i];
+            sum += d * d;
+        }
+    }
+    return sum;
+}
+
+}  // namespace
+
+// One way of coding the pending group: the frames' coefficients on `vertices` (their own, or the
+// rest mesh) with `motion` bytes each, lifted, coded and cut; with the decoder's images.
+VideoEncoder::GroupCoding VideoEncoder::code_group(std::vector<Planes> x,
+                                                   const std::vector<std::vector<Vec2>>& vertices,
+                                                   const std::vector<std::vector<uint8_t>>& motion,
+                                                   TwvMotion kind) {
+    const int n = static_cast<int>(x.size());
+    const int64_t first = pending_.front().info.number;
+    const int levels = temporal_levels(n);
+    temporal_forward(x, levels);
+    const std::vector<double> norms = temporal_norms(n, levels);
+    GroupCoding g;
+    g.group = group_;
+    g.group.first_frame = first;
+    g.group.lifted = n;
+    g.group.motion = kind;
+    const size_t group_bytes = twv_chunk('G', write_twv_group(g.group)).size();
+
+    // What the group may spend: its frames' share of the rate, less what the file has spent
+    // beyond the plan so far. The streams get what the chunks leave (found after the cut below).
+    int64_t budget = -1;
+    double group_target = 0;
+    if (options_.kbps > 0) {
+        const double B = options_.kbps * 1000 / 8 / header_.fps();
+        const double debt = static_cast<double>(written_) - static_cast<double>(coded_frames_) * B;
+        const double share = n * B;
+        group_target = std::max(share - debt, 0.5 * share);
+        budget = static_cast<int64_t>(group_target);
+    }
+    const auto group_size = [&] {
+        size_t bytes = group_bytes;
+        for (const TwvFrame& f : g.frames)
+            bytes += twv_chunk('F', write_twv_frame(f, g.group)).size();
+        return bytes;
+    };
+
+    std::vector<EmbeddedStream> streams;
+    const auto code_at = [&](float base_step, size_t cap) {
+        g.frames.assign(static_cast<size_t>(n), {});
+        streams.assign(static_cast<size_t>(n), {});
+        size_t whole = 0;
+        bool capped = false;
+        for (int t = 0; t < n; ++t) {
+            TwvFrame& f = g.frames[static_cast<size_t>(t)];
+            f.number = first + t;
+            f.kind = TwvFrameKind::band;
+            f.base_step = static_cast<float>(base_step / norms[static_cast<size_t>(t)]);
+            f.motion = motion[static_cast<size_t>(t)];
+            const IntPlanes q = quantize_planes(x[static_cast<size_t>(t)], f.base_step);
+            f.planes = count_planes(domain_->layout(), const_spans(q));
+            EmbeddedStream& s = streams[static_cast<size_t>(t)];
+            bool empty = true;
+            for (const auto& channel : f.planes) {
+                for (uint8_t p : channel) empty = empty && p == 0;
+            }
+            if (empty) continue;
+            const BitplaneOptions bo{.shifts = std::vector<int>(domain_->layout().bands.size(), 0),
+                                     .max_bytes = cap,
+                                     .pass_ends = &s.pass_ends};
+            f.stream = encode_bitplanes(domain_->layout(), const_spans(q), f.planes, bo);
+            s.size = f.stream.size();
+            whole += s.size;
+            capped = capped || any_capped(s);
+        }
+        return capped || budget < 0 || whole > static_cast<size_t>(budget);
+    };
+
+    if (budget < 0) {
+        // --psnr: the step at which the group's mean PSNR reaches the target, measured on every
+        // fourth frame (and the last) of the fully decoded group.
+        const float step = step_for_quality([&](float base_step) {
+            std::vector<Planes> y(static_cast<size_t>(n));
+            for (int t = 0; t < n; ++t) {
+                y[static_cast<size_t>(t)] =
+                    requantized(x[static_cast<size_t>(t)],
+                                static_cast<float>(base_step / norms[static_cast<size_t>(t)]));
+            }
+            temporal_inverse(y, levels);
+            double sum = 0;
+            int count = 0;
+            Image image;
+            for (int t = 0; t < n; ++t) {
+                if (t % 4 != 0 && t != n - 1) continue;
+                const size_t i = static_cast<size_t>(t);
+                domain_->synthesize(std::move(y[i]), vertices[i], image);
+                sum += std::min(psnr(pending_[i].frame, image).all, 100.0);
+                ++count;
+            }
+            return sum / count;
+        });
+        g.quality_target = quality_target_;
+        code_at(step, SIZE_MAX);
+    } else {
+        // Fine enough that the cut falls inside the streams; each stream is capped at the whole
+        // budget, which no single band may exceed.
+        const size_t cap = static_cast<size_t>(budget) + 64;
+        budget = std::max<int64_t>(budget - static_cast<int64_t>(group_size()), 0);
+        float step = fine_step_;
+        while (!code_at(step, cap) && step >= 0x1p-16f) step *= 0.25f;
+        // The cut for the streams' share; each round corrects it by what the chunks around the
+        // streams (plane counts of the slots left non-empty, size varints) really took.
+        const std::vector<TwvFrame> whole = g.frames;
+        double streams_budget = group_target;
+        CutPoint cut;
+        for (int round = 0; round < 6; ++round) {
+            cut = allocate_cuts(streams, static_cast<size_t>(std::max(streams_budget, 0.0)));
+            for (int t = 0; t < n; ++t) {
+                const size_t i = static_cast<size_t>(t);
+                TwvFrame& f = g.frames[i];
+                f = whole[i];
+                f.stream.resize(std::min(f.stream.size(), cut.bytes[i]));
+                if (f.stream.empty()) {
+                    for (auto& channel : f.planes) std::fill(channel.begin(), channel.end(), 0);
+                }
+            }
+            const double error = group_target - static_cast<double>(group_size());
+            bool all_whole = true;
+            for (int t = 0; t < n; ++t) {
+                const size_t i = static_cast<size_t>(t);
+                all_whole = all_whole && g.frames[i].stream.size() == whole[i].stream.size();
+            }
+            if (error >= 0 && (error < 0.002 * group_target || all_whole)) break;
+            if (error < 0 && streams_budget <= 0) break;  // the chunks alone exceed the target
+            streams_budget = std::max(streams_budget + error, 0.0);
+        }
+        // Where the next group starts: three sweeps finer than this cut (the coding cost grows
+        // with the sweeps coded beyond it).
+        g.next_fine_step =
+            std::clamp(step * std::exp2(static_cast<float>(cut.sweep) - 3.0f), 0x1p-16f, 1.0f);
+    }
+
+    // The decoder's images.
+    const std::vector<Planes> y = decode_lifted_group(*domain_, g.frames, n);
+    g.images.resize(static_cast<size_t>(n));
+    for (int t = 0; t < n; ++t) {
+        const size_t i = static_cast<size_t>(t);
+        domain_->synthesize(y[i], vertices[i], g.images[i]);
+        g.squared_error += squared_error(pending_[i].frame, g.images[i]);
+    }
+    g.bytes = group_size();
+    return g;
+}
+
+std::vector<EncodedFrame> VideoEncoder::code_lifted_group() {
+    const size_t n = pending_.size();
+    report(options_.progress, 0.6, "coding the group");
+    std::vector<Planes> x;
+    std::vector<std::vector<Vec2>> vertices;
+    std::vector<std::vector<uint8_t>> motion;
+    bool moved = false;
+    for (Pending& p : pending_) {
+        x.push_back(std::move(p.coefficients));
+        vertices.push_back(p.vertices);
+        motion.push_back(p.motion);
+        moved = moved || !p.motion.empty();
+    }
+    GroupCoding g = code_group(std::move(x), vertices, motion, group_.motion);
+    // Motion never hurts: the group is also coded on the static mesh, whose frames carry no
+    // motion, and the lower error at the rate (with --psnr: the smaller group at no lower
+    // quality) is kept.
+    if (moved) {
+        report(options_.progress, 0.8, "coding the group on the static mesh");
+        const std::vector<Vec2>& rest = domain_->shape().mesh.vertices;
+        std::vector<Planes> still(n);
+        for (size_t t = 0; t < n; ++t) {
+            domain_->analyze(pending_[t].frame, rest, still[t], options_.sampling,
+                             options_.projection);
+        }
+        GroupCoding s = code_group(std::move(still), std::vector<std::vector<Vec2>>(n, rest),
+                                   std::vector<std::vector<uint8_t>>(n), TwvMotion::none);
+        const bool better = options_.kbps > 0
+                                ? s.squared_error < g.squared_error
+                                : s.bytes < g.bytes && s.squared_error <= 1.02 * g.squared_error;
+        if (better) g = std::move(s);
+    }
+    if (options_.kbps > 0) fine_step_ = g.next_fine_step;
+
+    index_.group_offsets.push_back(written_);
+    index_.group_first.push_back(g.group.first_frame);
+    uint64_t start = written_;
+    write(twv_chunk('G', write_twv_group(g.group)));
+    std::vector<EncodedFrame> done;
+    for (size_t t = 0; t < n; ++t) {
+        Pending& p = pending_[t];
+        const TwvFrame& f = g.frames[t];
+        index_.frame_offsets.push_back(written_);
+        write(twv_chunk('F', write_twv_frame(f, g.group)));
+        EncodedFrame e = std::move(p.info);
+        e.kind = TwvFrameKind::band;
+        e.first_in_group = t == 0;
+        e.static_group = g.group.motion == TwvMotion::none && group_.motion == TwvMotion::tracked;
+        e.bytes = static_cast<int64_t>(written_ - start);
+        e.motion_bytes = static_cast<int64_t>(f.motion.size());
+        e.psnr = psnr(p.frame, g.images[t]).all;
+        e.quality_target = g.quality_target;
+        e.reconstruction = std::move(g.images[t]);
+        done.push_back(std::move(e));
+        start = written_;
+    }
+    coded_frames_ += static_cast<int64_t>(n);
+    pending_.clear();
+    return done;
+}
+
+}  // namespace tesswave::video
