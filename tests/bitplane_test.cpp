@@ -63,6 +63,23 @@ TEST(Bitplane, a_whole_stream_decodes_every_coefficient_exactly) {
     }
 }
 
+// Version 1 files' streams had models adapting at their settled rates from the start: with
+// fast_start false both sides code that way, and the stream is longer than a fast-start one.
+TEST(Bitplane, settled_models_round_trip_and_cost_more_than_fast_start) {
+    const CodingLayout layout = mesh_test_layout();
+    const Planes32 q = random_coefficients(layout, 3, 5);
+    const PlaneCounts planes = count_planes(layout, views(q));
+    const BitplaneOptions fast{.shifts = std::vector<int>(layout.bands.size(), 0)};
+    BitplaneOptions settled = fast;
+    settled.fast_start = false;
+    const std::vector<uint8_t> a = encode_bitplanes(layout, views(q), planes, fast);
+    const std::vector<uint8_t> b = encode_bitplanes(layout, views(q), planes, settled);
+    EXPECT_LT(a.size(), b.size());
+    EXPECT_EQ(decode_bitplanes(layout, planes, b, settled).value, q);
+    EXPECT_EQ(decode_bitplanes(layout, planes, a, fast).value, q);
+    EXPECT_NE(decode_bitplanes(layout, planes, b, fast).value, q);
+}
+
 // Any prefix determines the high bits of every coefficient it reaches: the decoded magnitude is
 // the true one with the bits below the lowest known plane cleared, and the sign is right.
 TEST(Bitplane, every_prefix_decodes_the_high_bits_it_holds) {

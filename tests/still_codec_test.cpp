@@ -136,39 +136,42 @@ struct Pin {
 
 TEST(StillCodec, pinned_quality_at_three_rates) {
     const Image image = scene(128, 96, 3);
+    // The range coder's models learn fast while fresh (range_coder.h): 0.5 to 3 dB more on this
+    // small image than with models starting at 1/2 (mesh 21.50 / 27.83 / 30.49 dB before).
     const Pin pins[] = {
-        {TwiTransform::mesh, 0.25, 21.495},
-        {TwiTransform::mesh, 0.5, 27.832},
-        {TwiTransform::mesh, 1, 30.485},
-        {TwiTransform::mesh, 0.25, 21.582, Sampling::fit},
-        {TwiTransform::mesh, 0.5, 27.846, Sampling::fit},
-        {TwiTransform::mesh, 1, 32.256, Sampling::fit},
-        {TwiTransform::grid53, 0.25, 24.319},
-        {TwiTransform::grid53, 0.5, 29.371},
-        {TwiTransform::grid53, 1, 35.057},
-        {TwiTransform::grid97, 0.25, 24.694},
-        {TwiTransform::grid97, 0.5, 29.359},
-        {TwiTransform::grid97, 1, 34.909},
+        {TwiTransform::mesh, 0.25, 24.536},
+        {TwiTransform::mesh, 0.5, 28.447},
+        {TwiTransform::mesh, 1, 30.979},
+        {TwiTransform::mesh, 0.25, 24.536, Sampling::fit},
+        {TwiTransform::mesh, 0.5, 28.897, Sampling::fit},
+        {TwiTransform::mesh, 1, 33.508, Sampling::fit},
+        {TwiTransform::grid53, 0.25, 25.416},
+        {TwiTransform::grid53, 0.5, 30.679},
+        {TwiTransform::grid53, 1, 36.396},
+        {TwiTransform::grid97, 0.25, 25.687},
+        {TwiTransform::grid97, 0.5, 30.835},
+        {TwiTransform::grid97, 1, 36.088},
     };
     for (const Pin& pin : pins) {
         const int64_t budget = static_cast<int64_t>(pin.bpp * 128 * 96 / 8);
         const StillResult r = compress_image(
             image, {.transform = pin.transform, .max_bytes = budget, .sampling = pin.sampling});
         EXPECT_EQ(static_cast<int64_t>(r.file.size()), budget);
-        EXPECT_NEAR(r.psnr, pin.psnr, 0.05)
-            << int(pin.transform) << " at " << pin.bpp << " bpp, " << sampling_name(pin.sampling);
+        EXPECT_NEAR(r.psnr, pin.psnr, 0.05) << int(pin.transform) << " at " << pin.bpp << " bpp, "
+                                            << sampling_name(pin.sampling) << ": " << r.psnr;
     }
 }
 
 TEST(StillCodec, pinned_sizes_for_three_quality_targets) {
     const Image image = scene(128, 96, 3);
     for (auto [target, bytes] :
-         {std::pair{26.0, 497}, std::pair{30.0, 826}, std::pair{34.0, 1374}}) {
+         {std::pair{26.0, 403}, std::pair{30.0, 682}, std::pair{34.0, 1138}}) {
         const StillResult r =
             compress_image(image, {.transform = TwiTransform::grid97, .target_psnr = target});
         EXPECT_GE(r.psnr, target);
         EXPECT_LT(r.psnr, target + 0.3);
-        EXPECT_NEAR(static_cast<double>(r.file.size()), bytes, 0.02 * bytes) << target << " dB";
+        EXPECT_NEAR(static_cast<double>(r.file.size()), bytes, 0.02 * bytes)
+            << target << " dB: " << r.file.size();
     }
 }
 

@@ -162,7 +162,7 @@ std::vector<Vec2> VideoDecoder::frame_vertices(const TwvFrame& f, const std::str
     if (f.motion.empty()) return from;
     return decode_motion(f.motion, from,
                          two_back ? std::span<const Vec2>(previous_) : std::span<const Vec2>(),
-                         domain_->shape().mesh, what);
+                         domain_->shape().mesh, what, header_.version >= 2);
 }
 
 void VideoDecoder::decode_frame(const Chunk& chunk, Image* out) {
@@ -170,7 +170,7 @@ void VideoDecoder::decode_frame(const Chunk& chunk, Image* out) {
     TwvFrame f = frame_of(chunk, what);
     std::vector<Vec2> vertices = frame_vertices(f, what);
     if (next_frame_ == group_.first_frame) coefficients_ = domain_->zeros();
-    add_decoded_residual(*domain_, f, coefficients_);
+    add_decoded_residual(*domain_, f, coefficients_, header_.version >= 2);
     previous_ = std::move(vertices_);
     vertices_ = std::move(vertices);
     info_ = {.number = f.number,

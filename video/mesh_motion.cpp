@@ -22,6 +22,13 @@ struct AxisModels {
     BitModel sign;
     std::array<BitModel, kMaxExponent + 1> prefix;
     std::array<BitModel, kMaxExponent + 1> suffix;
+
+    void settle() {
+        for (BitModel& b : zero) b = BitModel::settled();
+        sign = BitModel::settled();
+        for (BitModel& b : prefix) b = BitModel::settled();
+        for (BitModel& b : suffix) b = BitModel::settled();
+    }
 };
 
 int context_of(int64_t previous) { return previous == 0 ? 0 : (std::abs(previous) == 1 ? 1 : 2); }
@@ -129,7 +136,7 @@ std::vector<uint8_t> encode_motion(const Mesh& mesh, std::span<const Vec2> curre
 
 std::vector<Vec2> decode_motion(std::span<const uint8_t> bytes, std::span<const Vec2> previous,
                                 std::span<const Vec2> before, const Mesh& mesh,
-                                const std::string& what) {
+                                const std::string& what, bool fast_start) {
     if (previous.size() != mesh.vertices.size() ||
         (!before.empty() && before.size() != previous.size())) {
         throw Error(str(what, ": vertex counts differ between frames"));
@@ -138,6 +145,9 @@ std::vector<Vec2> decode_motion(std::span<const uint8_t> bytes, std::span<const 
     p.velocity.resize(previous.size());
     RangeDecoder d(bytes);
     std::array<AxisModels, 2> models{};
+    if (!fast_start) {
+        for (AxisModels& m : models) m.settle();
+    }
     std::array<int64_t, 2> last{0, 0};
     const int64_t max_x = to_units(mesh.width), max_y = to_units(mesh.height);
     std::vector<Vec2> out(previous.size());

@@ -30,9 +30,11 @@ CodingDomain group_domain(const TwvHeader& header, const TwvGroup& group, bool m
                         measure_norms ? std::span<const float>() : group.band_norms);
 }
 
-void add_decoded_residual(const CodingDomain& domain, const TwvFrame& frame, Planes& x) {
+void add_decoded_residual(const CodingDomain& domain, const TwvFrame& frame, Planes& x,
+                          bool fast_start) {
     const CodingLayout& layout = domain.layout();
-    const BitplaneOptions options{.shifts = std::vector<int>(layout.bands.size(), 0)};
+    const BitplaneOptions options{.shifts = std::vector<int>(layout.bands.size(), 0),
+                                  .fast_start = fast_start};
     const DecodedPlanes d = decode_bitplanes(layout, frame.planes, frame.stream, options);
     std::vector<float> r(layout.size);
     for (size_t c = 0; c < x.size(); ++c) {

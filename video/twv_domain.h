@@ -26,7 +26,9 @@ CodingDomain group_domain(const TwvHeader& header, const TwvGroup& group, bool m
 // Decodes a frame's bit-planes and adds the dequantized residual to `coefficients` (the previous
 // frame's decoded coefficients, or zeros for an intra frame): the one step the encoder and the
 // decoder share, so that both hold the same coefficients to the bit.
-void add_decoded_residual(const CodingDomain& domain, const TwvFrame& frame, Planes& coefficients);
+// `fast_start`: the coder's models learn fast while fresh (version 2 files; range_coder.h).
+void add_decoded_residual(const CodingDomain& domain, const TwvFrame& frame, Planes& coefficients,
+                          bool fast_start = true);
 
 // A lifted group's frame coefficients from its temporal bands: bands[t] is slot t, slots from
 // bands.size() up to `frames` (a group cut short) are zero; then the temporal inverse. The one

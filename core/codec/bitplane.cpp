@@ -30,6 +30,18 @@ struct BandModels {
     BitModel sign[3];               // neighbour signs: net negative, balanced, net positive
     BitModel refinement[3];         // first refinement without / with significant neighbours; later
     BitModel run, run_position[3];  // run mode: any significant; position of the first
+
+    void settle() {
+        for (auto& a : significance) {
+            for (auto& b : a) {
+                for (BitModel& m : b) m = BitModel::settled();
+            }
+        }
+        for (BitModel* group : {sign, refinement, run_position}) {
+            for (int i = 0; i < 3; ++i) group[i] = BitModel::settled();
+        }
+        run = BitModel::settled();
+    }
 };
 
 int channel_class(int channel) { return channel == 0 ? 0 : channel < 3 ? 1 : 2; }
@@ -76,7 +88,11 @@ class Traversal {
           side_(side),
           state_(value.size(), std::vector<uint8_t>(layout.size, 0)),
           near_(value.size(), std::vector<uint8_t>(layout.size, 0)),
-          models_(layout.bands.size() * 4) {}
+          models_(layout.bands.size() * 4) {
+        if (!options.fast_start) {
+            for (BandModels& m : models_) m.settle();
+        }
+    }
 
     bool run() {
         const int bands = static_cast<int>(layout_.bands.size());

@@ -32,6 +32,9 @@ struct BitplaneOptions {
     // coded; sweeps run from the top down, so sizes grow as t falls. Entries the encoder did not
     // reach (it stopped at max_bytes) are SIZE_MAX.
     std::vector<size_t>* pass_ends = nullptr;
+    // Fresh probability models learn fast (range_coder.h); false for the streams of .twi and .twv
+    // version 1, whose models adapted at their settled rates from the start.
+    bool fast_start = true;
 };
 
 // Codes the quantized planes (sign and magnitude in an int32 per coefficient). The result may be

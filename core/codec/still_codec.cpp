@@ -129,7 +129,7 @@ IntPlanes integer_values(const DecodedPlanes& d) {
 }
 
 Image reconstruct(const CodingDomain& domain, const TwiHeader& h, std::span<const uint8_t> stream) {
-    const BitplaneOptions bo{.shifts = h.shifts};
+    const BitplaneOptions bo{.shifts = h.shifts, .fast_start = h.version >= 2};
     const DecodedPlanes d = decode_bitplanes(domain.layout(), h.planes, stream, bo);
     if (h.lossless) return domain.synthesize_int(integer_values(d));
     Planes x(h.channels, std::vector<float>(domain.size()));

@@ -15,7 +15,7 @@ namespace tesswave {
 namespace {
 
 constexpr uint8_t kMagic[4] = {'T', 'W', 'I', 0x1A};
-constexpr uint32_t kVersion = 1;
+constexpr uint32_t kVersion = 2;
 constexpr double kVertexUnit = 256.0;
 constexpr int64_t kMaxCoordinate = int64_t{1} << 40;  // in vertex units, either sign
 
@@ -219,7 +219,9 @@ TwiHeader read_twi_header(std::span<const uint8_t> file, const std::string& name
     }
     r.bytes(4, "magic");
     TwiHeader h;
-    if (r.u8("version") != kVersion) r.fail("unsupported .twi version");
+    const uint32_t version = r.u8("version");
+    if (version < 1 || version > kVersion) r.fail(str("unsupported .twi version ", version));
+    h.version = static_cast<int>(version);
     const uint32_t flags = r.u8("flags");
     if (flags > 1) r.fail(str("unknown flags ", flags));
     h.lossless = flags & 1;

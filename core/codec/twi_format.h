@@ -28,6 +28,7 @@ enum class TwiColour : uint8_t { none = 0, ycbcr = 1, ycocg_r = 2 };
 enum class MeshPlacement : uint8_t { area = 0, centres = 1 };
 
 struct TwiHeader {
+    int version = 2;  // as read; written files are version 2 (fast-learning coder models)
     TwiTransform transform = TwiTransform::mesh;
     bool lossless = false;
     TwiColour colour = TwiColour::none;
