@@ -57,9 +57,12 @@ struct VideoEncodeOptions {
     // How frames go on the mesh (project.h). The projection by default: with lifted groups it pays
     // at every rate (carphone, 96 frames, PSNR at 38 / 152 / 304 kbit/s: point 26.70 / 32.17 /
     // 33.87 dB, fit 26.93 / 33.04 / 35.34). With low-delay deltas it did not (30 frames at 150
-    // kbit/s: point 29.87 dB, fit 29.38 to 29.90 at smoothness 0.01 to 0.3).
+    // kbit/s: point 29.87 dB, fit 29.38 to 29.90 at smoothness 0.01 to 0.3). Its smoothness,
+    // measured at 0.02 / 0.1 / 0.8 bpp (carphone, 64 frames): 0.1 gives 24.75 / 31.49 / 37.76 dB,
+    // 0.01 24.82 / 32.03 / 40.14, 0.003 24.92 / 32.08 / 40.25, 0 24.87 / 32.11 / 40.00; aerial at
+    // 0.05 / 0.8 bpp: 0.1 26.12 / 33.14, 0.01 26.20 / 33.92, 0.003 26.20 / 33.94.
     Sampling sampling = Sampling::fit;
-    ProjectOptions projection = {.smoothness = 0.1};
+    ProjectOptions projection = {.smoothness = 0.003};
     // Within each encode() call: the fraction of that frame done and its stage (tracking, fitting
     // the mesh, calibrating, coding). The caller maps frames into its bar with progress_range.
     Progress progress = {};
