@@ -75,8 +75,9 @@ fuzz)  # ./run.sh fuzz [seconds per target]: libFuzzer runs from the sample mesh
         ./build-fuzz/apps/tesswave compress $small/scene.png $mode -y \
             -o build-fuzz/corpus/seed$((i++)).twi >/dev/null
     done
-    # .twv seeds: 6 frames of the 176x144 sample clip in each mode, about 2 kB each.
-    for mode in "" "--motion none" "--grid 53" "--grid 97 --intra-weight 2"; do
+    # .twv seeds: 6 frames of the 176x144 sample clip in each mode (lifted groups by default, and
+    # low-delay ones), about 2 kB each.
+    for mode in "" "--motion none" "--grid 53" "--low-delay" "--low-delay --grid 97 --intra-weight 2"; do
         # $mode unquoted: it is several options.
         ./build-fuzz/apps/tesswave encode $small/clip.mkv --frames 6 -g 3 --kbps 60 $mode -y \
             -o build-fuzz/corpus/seed$((i++)).twv >/dev/null

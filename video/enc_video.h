@@ -47,11 +47,12 @@ struct VideoEncodeOptions {
     // decoder's inverse transform upsamples them): for 4:2:0 sources.
     bool chroma_420 = false;
     double kbps = 0;  // rate target; > 0 overrides `quality`
-    // Target PSNR in dB of each group's intra frame, when kbps is 0. The default puts the shared
-    // clips near the rates x264's default (CRF 23) gives them: carphone 0.25 bpp against x264's
-    // 0.12, aerial 0.41 against 0.31, chaplin 0.078 against 0.081, Big Buck Bunny at 640x360 0.018
-    // against 0.066 (29 and 33 dB were further off).
-    double quality = 30;
+    // Target PSNR in dB, when kbps is 0: of each group's frames on average (lifted), or of each
+    // group's intra frame (low delay). The default is near the rates x264's default (CRF 23)
+    // gives the shared clips, first 64 frames: carphone 0.126 bpp against x264's 0.119, chaplin
+    // 0.064 against 0.084, aerial 0.57 against 0.31, Big Buck Bunny at 640x360 0.010 against 0.066
+    // (30 dB gave 0.073 / 0.033 / 0.20 / 0.008; 34 dB 0.159 / 0.079 / 0.75 / 0.013).
+    double quality = 33;
     double intra_weight = 4;  // low delay with a rate: an intra frame's share of a delta's
     MeshMotionOptions mesh_motion = {};
     // How frames go on the mesh (project.h). The projection by default: with lifted groups it pays
@@ -127,7 +128,7 @@ class VideoEncoder {
         std::vector<Image> images;  // the decoder's
         double squared_error = 0;
         size_t bytes = 0;
-        float next_fine_step = 1.0f / 256;
+        float next_fine_step = 1.0f / 16;
         double quality_target = 0;  // --psnr: the group's
     };
     GroupCoding code_group(std::vector<Planes> x, const std::vector<std::vector<Vec2>>& vertices,
@@ -154,7 +155,9 @@ class VideoEncoder {
     int64_t frames_ = 0, in_group_ = 0, group_length_ = 0;
     int64_t coded_frames_ = 0;  // frames whose chunks are written
     float base_step_ = 1.0f / 1024;
-    float fine_step_ = 1.0f / 256;  // lifted groups with a rate: the step the cuts start from
+    // Lifted groups with a rate: the step the streams are coded at, refined by quarters until the
+    // group's cut falls inside them.
+    float fine_step_ = 1.0f / 16;
     std::vector<Pending> pending_;
     double quality_target_ = 0;
     Planes coefficients_, residual_;

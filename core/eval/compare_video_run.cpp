@@ -212,30 +212,55 @@ double next_knob(const QualityKnob& k, double x, double error,
 }
 
 // Searches the knob for the size nearest the target (within kTolerance, at most kMaxTries
-// encodes) and returns that run.
+// encodes) and returns that run. A try the peer fails (Snow's own decoder refuses some of its
+// streams at the coarsest qscales) is not the end: the search backs off halfway towards the last
+// good setting (or the start) and stays on that side; only when no try succeeds does the error
+// come through.
 PeerRun search_quality(const RunContext& c, VideoMethod method, double target_bpp,
                        PeerVideoOptions o, const QualityKnob& k) {
     const double target_bytes = target_bpp * c.clip->pixels() / 8;
     std::optional<std::pair<double, double>> over, under;
+    std::optional<double> failed;  // a knob value the peer failed at
+    std::string failure;
     PeerRun best;
-    double best_error = INFINITY, x = k.start;
+    double best_error = INFINITY, best_x = k.start, x = k.start;
     for (int i = 0; i < kMaxTries; ++i) {
         o.quality = k.logarithmic ? std::exp(x) : x;
-        PeerRun run = run_peer_once(c, method, target_bpp, o, [&](double f) {
-            c.progress((i + f) / kMaxTries, str(k.name, " try ", i + 1).c_str());
-        });
+        PeerRun run;
+        try {
+            run = run_peer_once(c, method, target_bpp, o, [&](double f) {
+                c.progress((i + f) / kMaxTries, str(k.name, " try ", i + 1).c_str());
+            });
+        } catch (const Error& e) {
+            failure = e.what();
+            failed = x;
+            const double next = 0.5 * (x + (std::isfinite(best_error) ? best_x : k.start));
+            if (std::abs(next - x) < 1e-3) break;
+            x = next;
+            continue;
+        }
         const double error = std::log(run.row.bytes / target_bytes);
         if (std::abs(error) < best_error) {
             best_error = std::abs(error);
+            best_x = x;
             best = std::move(run);
             best.row.setting = str(k.name, " ", std::lround(o.quality * 1000) / 1000.0);
         }
         best.row.tries = i + 1;
         if (best_error <= std::log1p(kTolerance)) break;
         (error > 0 ? over : under) = std::make_pair(x, error);
-        const double next = next_knob(k, x, error, over, under);
-        if (next == x) break;  // at the end of the knob's range
+        double next = next_knob(k, x, error, over, under);
+        if (failed && (next - x) * (*failed - x) > 0 &&
+            std::abs(next - x) >= std::abs(*failed - x)) {
+            next = 0.5 * (x + *failed);  // not past a setting the peer failed at
+        }
+        if (std::abs(next - x) < 1e-3) break;  // at the end of the knob's range
         x = next;
+    }
+    if (!std::isfinite(best_error)) throw Error(failure);
+    if (failed) {  // said in the row, as its failures are
+        const double q = k.logarithmic ? std::exp(*failed) : *failed;
+        best.row.setting += str(" (", k.name, " ", std::lround(q * 1000) / 1000.0, " failed)");
     }
     return best;
 }
