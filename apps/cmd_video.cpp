@@ -356,7 +356,9 @@ void add_video_commands(CLI::App& app) {
                     "Clip: any file FFmpeg reads, a folder of frames, or raw .yuv (with --size)")
         ->required();
     enc->add_option("-o,--output", e->output, "Output .twv file")->required();
-    auto* kbps = enc->add_option("--kbps", e->kbps, "Rate in kbit/s (every frame's bytes capped)")
+    auto* kbps = enc->add_option("--kbps", e->kbps,
+                                 "Rate in kbit/s (each group gets its frames' share, its bands "
+                                 "cut at one rate-distortion slope)")
                      ->check(positive("a rate"));
     enc->add_option("--psnr", e->quality,
                     str("Target PSNR in dB (default ", video::VideoEncodeOptions{}.quality,
@@ -378,8 +380,9 @@ void add_video_commands(CLI::App& app) {
     enc->add_option("-g,--group", e->group, "Intra period: frames per group (default 32)")
         ->check(CLI::Range(1, 100000));
     enc->add_flag("--low-delay", e->low_delay,
-                  "Closed-loop deltas, each frame coded as it comes, instead of lifting each "
-                  "group along time (a group of latency; better quality per bit)");
+                  "Code each frame as it comes (closed-loop deltas) instead of lifting each "
+                  "group along time, which takes a group of latency and gives more quality per "
+                  "bit");
     enc->add_option("--intra-weight", e->intra_weight,
                     "With --low-delay and --kbps: an intra frame's budget in delta frames "
                     "(default 4)")
