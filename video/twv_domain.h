@@ -14,12 +14,6 @@ namespace tesswave::video {
 
 using tesswave::Planes;
 
-// Read-only spans of each plane, as the bit-plane coder takes them.
-template <class T>
-std::vector<std::span<const T>> const_spans(const std::vector<std::vector<T>>& planes) {
-    return {planes.begin(), planes.end()};
-}
-
 // Norms are measured (encoder) when `measure_norms`, else taken from the group (decoder).
 CodingDomain group_domain(const TwvHeader& header, const TwvGroup& group, bool measure_norms);
 

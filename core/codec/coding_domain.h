@@ -27,6 +27,12 @@ namespace tesswave {
 using Planes = std::vector<std::vector<float>>;
 using IntPlanes = std::vector<std::vector<int32_t>>;
 
+// Read-only spans of each plane, as the bit-plane coder takes them.
+template <class T>
+std::vector<std::span<const T>> const_spans(const std::vector<std::vector<T>>& planes) {
+    return {planes.begin(), planes.end()};
+}
+
 // The one mapping from a transform choice to its fixed-grid wavelet (the 5/3 for the mesh too:
 // its coarse-to-fine rules are the 5/3's on a grid).
 GridWavelet wavelet_of(TwiTransform transform);

@@ -18,11 +18,6 @@
 namespace tesswave {
 namespace {
 
-template <class T>
-std::vector<std::span<const T>> const_spans(const std::vector<std::vector<T>>& planes) {
-    return {planes.begin(), planes.end()};
-}
-
 void progress(const StillOptions& o, double done, const char* stage) {
     if (o.progress) o.progress(done, stage);
 }
