@@ -122,6 +122,11 @@ void run_morph(const MorphArgs& a) {
     const morph::PairMeshes pair = pair_meshes(a, c, ia, ib);
     report["correspondences"] = c.a.size();
     report["mesh"] = pair.description;
+    report["dropped_points"] = pair.dropped;
+    if (!pair.repair.empty()) {
+        report["repair"] = pair.repair;
+        warn("note: " + pair.repair);
+    }
     morph::MorphOptions o{.levels = a.levels, .density = a.density};
     o.sampling = sampling_from_name(a.sampling);
     if (!a.size.empty()) {

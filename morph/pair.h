@@ -34,11 +34,19 @@ std::vector<std::array<int32_t, 3>> parse_triangles(const std::string& text, int
 struct PairMeshes {
     Mesh a, b;
     std::string description;
+    // Points left out to make the meshes valid (0-based indices into the correspondences, in
+    // increasing order), and one line that says which and why; empty when none were.
+    std::vector<int> dropped = {};
+    std::string repair = {};
 };
 
-// Delaunay triangulation of A's points plus the domain corners and `border_points` points a side,
-// the same triangles on B's points (the border points scaled to B's border). Error when a
-// triangle flips or the mesh is invalid in B (the correspondences cross).
+// The classic morph's triangulation: Delaunay of the mean shape (A's points and B's points scaled
+// to A's size, averaged) plus the domain corners and `border_points` points a side, the same
+// triangles on A's and on B's points (the border points scaled to each image's border). Where a
+// triangle still folds in A or in B (the correspondences cross there), the landmark in the most
+// folded triangles is dropped and the mean shape triangulated again, until none folds; so is a
+// point on the border in one image only, or one that lands on another in the mean shape.
+// Error only when fewer than 3 points would remain.
 PairMeshes triangulated_pair(const Correspondences& c, double width_a, double height_a,
                              double width_b, double height_b, int border_points = 3);
 

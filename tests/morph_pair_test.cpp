@@ -5,6 +5,7 @@
 #include "core/math/error.h"
 #include "core/math/grid_mesh.h"
 #include "core/math/metrics.h"
+#include "core/math/validate.h"
 #include "morph/auto_match.h"
 #include "morph/morph.h"
 #include "morph/pair.h"
@@ -72,13 +73,25 @@ TEST(MorphPair, triangle_files) {
                  Error);  // overlap
 }
 
-TEST(MorphPair, triangulated_pair_shares_topology_and_refuses_crossings) {
+TEST(MorphPair, triangulated_pair_shares_topology_and_leaves_out_crossings) {
     const samples::SamplePair p = samples::deformed_pair(160, 120, 40);
     const PairMeshes pair = triangulated_pair({p.points_a, p.points_b}, 160, 120, 160, 120);
     EXPECT_EQ(pair.a.face_corners, pair.b.face_corners);
+    EXPECT_TRUE(pair.dropped.empty());
+    EXPECT_EQ(pair.repair, "");
+    // Two swapped points cross: the fewest points are left out (one or both of the two), said in
+    // one line, and what remains is valid in both images.
     Correspondences crossed{p.points_a, p.points_b};
     std::swap(crossed.b[3], crossed.b[30]);
-    EXPECT_THROW(triangulated_pair(crossed, 160, 120, 160, 120), Error);
+    const PairMeshes mended = triangulated_pair(crossed, 160, 120, 160, 120);
+    ASSERT_FALSE(mended.dropped.empty());
+    EXPECT_LE(mended.dropped.size(), 2u);
+    for (int i : mended.dropped) EXPECT_TRUE(i == 3 || i == 30) << i;
+    EXPECT_NE(mended.repair.find("fold"), std::string::npos) << mended.repair;
+    EXPECT_EQ(mended.repair.find('\n'), std::string::npos);
+    EXPECT_TRUE(validate(mended.a).ok());
+    EXPECT_TRUE(validate(mended.b).ok());
+    EXPECT_EQ(mended.a.num_vertices(), pair.a.num_vertices() - mended.dropped.size());
     // Different image sizes: the border maps to the border.
     std::vector<Vec2> scaled = p.points_b;
     for (Vec2& q : scaled) q = 1.5 * q;
@@ -87,6 +100,21 @@ TEST(MorphPair, triangulated_pair_shares_topology_and_refuses_crossings) {
     EXPECT_EQ(big.b.vertices.back().x == 0 || big.b.vertices.back().x == 240 ||
                   big.b.vertices.back().y == 0 || big.b.vertices.back().y == 180,
               true);
+}
+
+// Landmark files carry their own border points (face tools add the corners and side midpoints),
+// which move along a side between the images: none is left out, and the mesh's own border points
+// keep off the stretch they span. A point on the border in one image only is left out.
+TEST(MorphPair, triangulated_pair_takes_border_landmarks) {
+    Correspondences c{{{40, 30}, {120, 30}, {80, 90}, {160, 50}, {0, 0}, {0, 120}, {160, 120}},
+                      {{45, 35}, {110, 28}, {85, 95}, {160, 85}, {0, 0}, {0, 120}, {160, 120}}};
+    const PairMeshes pair = triangulated_pair(c, 160, 120, 160, 120);
+    EXPECT_TRUE(pair.dropped.empty()) << pair.repair;
+    EXPECT_TRUE(validate(pair.b).ok());
+    c.b[3] = {150, 85};  // inside B, on A's right side
+    const PairMeshes off = triangulated_pair(c, 160, 120, 160, 120);
+    EXPECT_EQ(off.dropped, std::vector<int>{3});
+    EXPECT_NE(off.repair.find("border in one image only"), std::string::npos) << off.repair;
 }
 
 // On the procedural pair with a known deformation, the fitted mesh follows the truth to < 0.5 px
