@@ -15,7 +15,7 @@ fi
 packages=(cmake ninja-build g++ pkg-config clang-format ffmpeg
           libopencv-dev libopenimageio-dev libgtest-dev libgmock-dev libbenchmark-dev
           libcli11-dev nlohmann-json3-dev libopenjp2-7-dev libopenjp2-tools
-          libceres-dev
+          libceres-dev libdlib-dev libdlib-data
           # OpenImageIO's CMake config names its tools (/usr/bin/iconvert and others).
           openimageio-tools
           libavformat-dev libavcodec-dev libavutil-dev libswscale-dev libavfilter-dev)

@@ -16,6 +16,7 @@
 #include "core/math/strings.h"
 #include "frame_sink.h"
 #include "morph/auto_match.h"
+#include "morph/faces.h"
 #include "morph/inbetween.h"
 #include "morph/morph.h"
 #include "morph/pair.h"
@@ -28,7 +29,7 @@ namespace {
 struct MorphArgs {
     std::string a, b, output, points_a, points_b, triangles, mesh, schedule = "linear", bands,
                                                                    schedule_file, shape, size;
-    bool automatic = false, preview = false, overwrite = false, json = false;
+    bool automatic = false, faces = false, preview = false, overwrite = false, json = false;
     int frames = 30, levels = 0;
     double fps = 25, at = -1, density = 2.0;
     std::string sampling = "point";  // MorphOptions says why
@@ -50,28 +51,67 @@ void check_morph_output(const MorphArgs& a) {
     }
 }
 
-morph::Correspondences correspondences(const MorphArgs& a, const Image& ia, const Image& ib,
-                                       nlohmann::json& report, const Progress& progress) {
+// The points of a morph. `landmarks`: face landmarks or point files, which the mean-shape
+// triangulation takes; otherwise dense matches, which a fitted grid takes.
+struct Points {
     morph::Correspondences c;
-    if (a.automatic) {
+    bool landmarks = true;
+};
+
+// With --auto: the face landmarks of both images when each holds a face (or --faces), else flow
+// and features.
+bool face_points(const MorphArgs& a, const Image& ia, const Image& ib, morph::Correspondences& c,
+                 nlohmann::json& report) {
+    if (!morph::faces_available()) {
+        if (a.faces) throw Error(str("--faces: ", morph::faces_missing()));
+        return false;
+    }
+    const std::optional<morph::Face> fa = morph::find_face(ia), fb = morph::find_face(ib);
+    for (const auto& [face, name] : {std::pair{&fa, &a.a}, std::pair{&fb, &a.b}}) {
+        if (!*face) {
+            if (a.faces) {
+                throw Error(str(*name,
+                                ": no face found; give point files (--points-a, "
+                                "--points-b) or leave out --faces"));
+            }
+            warn(str("note: ", *name, ": no face found; using flow and features"));
+            return false;
+        }
+        if ((*face)->found > 1) {
+            warn(str("note: ", *name, ": ", (*face)->found, " faces; using the largest"));
+        }
+    }
+    c = {fa->points, fb->points};
+    report["faces"] = {{"a", fa->found}, {"b", fb->found}, {"landmarks", fa->points.size()}};
+    return true;
+}
+
+Points correspondences(const MorphArgs& a, const Image& ia, const Image& ib, nlohmann::json& report,
+                       const Progress& progress) {
+    Points p;
+    morph::Correspondences& c = p.c;
+    if (a.automatic && !face_points(a, ia, ib, c, report)) {
         const morph::Matches m = morph::auto_match(ia, ib, {.progress = progress});
         report["matches"] = {{"flow", m.from_flow},
                              {"features", m.from_features},
                              {"rejected_forward_backward", m.rejected_fb},
                              {"rejected_ransac", m.rejected_ransac}};
         c = {m.a, m.b};
-    } else {
+        p.landmarks = false;
+    } else if (!a.automatic) {
         c = {read_points(a.points_a), read_points(a.points_b)};
         report["snapped_to_border"] = morph::snap_to_border(c.a, ia.width, ia.height) +
                                       morph::snap_to_border(c.b, ib.width, ib.height);
     }
+    const bool files = !a.automatic;
     morph::check_correspondences(c, ia.width, ia.height, ib.width, ib.height,
-                                 a.automatic ? a.a : a.points_a, a.automatic ? a.b : a.points_b);
-    return c;
+                                 files ? a.points_a : a.a, files ? a.points_b : a.b);
+    return p;
 }
 
-morph::PairMeshes pair_meshes(const MorphArgs& a, const morph::Correspondences& c, const Image& ia,
+morph::PairMeshes pair_meshes(const MorphArgs& a, const Points& p, const Image& ia,
                               const Image& ib) {
+    const morph::Correspondences& c = p.c;
     if (!a.triangles.empty()) {
         const auto t = morph::parse_triangles(read_file(a.triangles), static_cast<int>(c.a.size()),
                                               a.triangles);
@@ -81,7 +121,7 @@ morph::PairMeshes pair_meshes(const MorphArgs& a, const morph::Correspondences& 
             throw Error(str(a.triangles, ": ", e.what()));
         }
     }
-    const std::string spec = a.mesh.empty() ? (a.automatic ? "grid" : "triangulation") : a.mesh;
+    const std::string spec = a.mesh.empty() ? (p.landmarks ? "triangulation" : "grid") : a.mesh;
     if (spec == "triangulation") {
         return morph::triangulated_pair(c, ia.width, ia.height, ib.width, ib.height);
     }
@@ -116,11 +156,11 @@ void run_morph(const MorphArgs& a) {
     const int frames = a.at >= 0 ? 1 : a.frames;
     const double setup = 0.5 * 10 / (10.0 + frames);  // the set-up's share, about 10 frames' worth
     bar.update(0.0, "correspondences");
-    const morph::Correspondences c =
+    const Points points =
         correspondences(a, ia, ib, report, progress_range(progress, 0, 0.6 * setup));
     bar.update(0.6 * setup, "meshes");
-    const morph::PairMeshes pair = pair_meshes(a, c, ia, ib);
-    report["correspondences"] = c.a.size();
+    const morph::PairMeshes pair = pair_meshes(a, points, ia, ib);
+    report["correspondences"] = points.c.a.size();
     report["mesh"] = pair.description;
     report["dropped_points"] = pair.dropped;
     if (!pair.repair.empty()) {
@@ -203,11 +243,16 @@ void add_morph_commands(CLI::App& app) {
     cmd->add_option("--triangles", a->triangles, "Triangles over the points: 'i j k' lines")
         ->needs(points_a);
     cmd->add_flag("--auto", a->automatic,
-                  "Find correspondences (dense flow + features); the default without point files")
+                  str("Find correspondences: face landmarks when both images hold a face",
+                      morph::faces_available() ? "" : " (not in this build: dlib is missing)",
+                      ", else dense flow + features; the default without point files"))
+        ->excludes(points_a);
+    cmd->add_flag("--faces", a->faces,
+                  "Use face landmarks (dlib, 68 points + forehead) or fail when a face is missing")
         ->excludes(points_a);
     cmd->add_option("--mesh", a->mesh,
-                    "triangulation (default with points), grid[:CxR] or voronoi[:N] fitted with "
-                    "Ceres (default grid with --auto)");
+                    "triangulation (default with points and faces), grid[:CxR] or voronoi[:N] "
+                    "fitted with Ceres (default with flow and features)");
     cmd->add_option("--frames", a->frames, "Number of frames from A to B")
         ->capture_default_str()
         ->check(CLI::Range(1, 100000));
@@ -220,7 +265,7 @@ void add_morph_commands(CLI::App& app) {
     cmd->add_option("--size", a->size, "Output size WxH (default: A's)");
     add_schedule_options(cmd, *a);
     cmd->callback([a] {
-        a->automatic = a->automatic || a->points_a.empty();
+        a->automatic = a->automatic || a->faces || a->points_a.empty();
         run_morph(*a);
     });
 

@@ -7,6 +7,7 @@
 #include "core/math/metrics.h"
 #include "core/math/validate.h"
 #include "morph/auto_match.h"
+#include "morph/faces.h"
 #include "morph/morph.h"
 #include "morph/pair.h"
 #include "samples/sample_pair.h"
@@ -155,3 +156,16 @@ TEST(MorphPair, known_deformation_is_recovered_from_automatic_correspondences) {
 
 }  // namespace
 }  // namespace tesswave::morph
+
+// Face landmarks: a procedural picture holds no face (nothing, not an error); a build without
+// dlib or its model says what is missing instead.
+TEST(MorphFaces, no_face_in_a_procedural_image) {
+    const samples::SamplePair p = samples::deformed_pair(160, 120, 40);
+    if (faces_available()) {
+        EXPECT_FALSE(find_face(p.a).has_value());
+        EXPECT_EQ(faces_missing(), "");
+    } else {
+        EXPECT_THROW(find_face(p.a), Error);
+        EXPECT_NE(faces_missing().find("dlib"), std::string::npos);
+    }
+}

@@ -1,0 +1,54 @@
+#!/usr/bin/env bash
+# Morphs as a new user starts them: point files that cross, CRLF and a BOM, --auto on images
+# without a face (flow and features), --faces where there is none (refused, naming the image).
+#   morph_test.sh TESSWAVE_BINARY
+source "$(dirname "$0")/lib.sh"
+
+check "samples" "$tesswave" samples -o "$dir/s" --size 96x64
+s=$dir/s
+# Two swapped points cross in B: the morph still runs, and says in one line what it left out.
+awk 'NR == 2 { keep = $0; getline; print; print keep; next } { print }' "$s/pair_b.txt" \
+    >"$dir/swapped.txt"
+check "crossing points" "$tesswave" morph "$s/pair_a.png" "$s/pair_b.png" \
+    --points-a "$s/pair_a.txt" --points-b "$dir/swapped.txt" --at 0.5 -o "$dir/mid.png"
+if grep -q "^note: left out [12] of" "$dir/err.txt"; then
+    pass "the left-out points are named: $(cat "$dir/err.txt")"
+else
+    fail "no note on the left-out points: $(cat "$dir/err.txt")"
+fi
+# Windows line ends and a UTF-8 BOM, as landmark tools on Windows write them.
+printf '\xef\xbb\xbf' >"$dir/crlf_a.txt"
+sed 's/$/\r/' "$s/pair_a.txt" >>"$dir/crlf_a.txt"
+sed 's/$/\r/' "$s/pair_b.txt" >"$dir/crlf_b.txt"
+check "points with CRLF and a BOM" "$tesswave" morph "$s/pair_a.png" "$s/pair_b.png" \
+    --points-a "$dir/crlf_a.txt" --points-b "$dir/crlf_b.txt" --at 0.5 -o "$dir/crlf.png"
+"$tesswave" morph "$s/pair_a.png" "$s/pair_b.png" --points-a "$s/pair_a.txt" \
+    --points-b "$s/pair_b.txt" --at 0.5 -o "$dir/plain.png" -q
+if cmp -s "$dir/crlf.png" "$dir/plain.png"; then
+    pass "CRLF and BOM read as plain lines"
+else
+    fail "CRLF and BOM change the morph"
+fi
+# No face in the procedural pair: --auto falls back to flow and features, --faces refuses.
+if "$tesswave" morph --help | grep -q "not in this build"; then
+    check "--auto without dlib" "$tesswave" morph "$s/pair_a.png" "$s/pair_b.png" --at 0.5 \
+        -o "$dir/auto.png"
+else
+    check "--auto, no face" "$tesswave" morph "$s/pair_a.png" "$s/pair_b.png" --at 0.5 \
+        -o "$dir/auto.png"
+    if grep -q "pair_a.png: no face found; using flow and features" "$dir/err.txt"; then
+        pass "the fallback is said"
+    else
+        fail "no note on the fallback: $(cat "$dir/err.txt")"
+    fi
+fi
+status=0
+"$tesswave" morph "$s/pair_a.png" "$s/pair_b.png" --faces --at 0.5 -o "$dir/faces.png" \
+    2>"$dir/err.txt" || status=$?
+if ((status == 1)) && [[ ! -e $dir/faces.png ]] && (($(wc -l <"$dir/err.txt") == 1)) &&
+    grep -q -e "pair_a.png: no face found" -e "dlib" "$dir/err.txt"; then
+    pass "--faces without a face refused: $(cat "$dir/err.txt")"
+else
+    fail "--faces without a face: exit $status: $(cat "$dir/err.txt")"
+fi
+finish
