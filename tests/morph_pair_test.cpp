@@ -154,9 +154,6 @@ TEST(MorphPair, known_deformation_is_recovered_from_automatic_correspondences) {
     expect_recovered(p, fitted_pair(grid_mesh(320, 240, 16, 12), {m.a, m.b}, 320, 240));
 }
 
-}  // namespace
-}  // namespace tesswave::morph
-
 // Face landmarks: a procedural picture holds no face (nothing, not an error); a build without
 // dlib or its model says what is missing instead.
 TEST(MorphFaces, no_face_in_a_procedural_image) {
@@ -169,3 +166,6 @@ TEST(MorphFaces, no_face_in_a_procedural_image) {
         EXPECT_NE(faces_missing().find("dlib"), std::string::npos);
     }
 }
+
+}  // namespace
+}  // namespace tesswave::morph
