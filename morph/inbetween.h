@@ -9,10 +9,11 @@
 namespace tesswave::morph {
 
 // The defaults are the best of eval-interp's search on Middlebury and UCF101 (cells of 8 to 24 px,
-// 2 to 3.5 samples a pixel): 10 px cells, 3.5 samples a pixel.
+// 2 to 3.5 samples a pixel): 10 px cells, 3.5 samples a pixel, the linear schedule (frames of one
+// scene correspond almost everywhere).
 struct InbetweenOptions {
     double cell = 10;  // grid cell size in pixels of the first frame
-    MorphOptions morph = {.density = 3.5};
+    MorphOptions morph = {.density = 3.5, .schedule = {.kind = ScheduleKind::linear}};
 };
 
 // The meshes of the pair: a cell-sized grid on f0 fitted to automatic correspondences on f1.

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <opencv2/imgproc.hpp>
 
 #include "core/math/error.h"
 #include "core/math/lifting.h"
@@ -117,11 +118,92 @@ Morph::Morph(const Image& a, const Image& b, const Mesh& mesh_a, const Mesh& mes
             }
         }
     }
+    if (options_.schedule.kind == ScheduleKind::aware) measure_agreement();
+}
+
+void Morph::measure_agreement() {
+    // Each level's detail energies and inner products, splatted onto a grid of about two of the
+    // level's sample spacings with bilinear weights and read back the same way: a local mean
+    // over a few neighbours on the level, at the cost of two passes.
+    const int J = levels();
+    const int32_t n = hierarchy_.num_samples(J);
+    local_a_.assign(n, 0.0f);
+    local_b_.assign(n, 0.0f);
+    local_ab_.assign(n, 0.0f);
+    const std::vector<Vec2> position = refine_positions(hierarchy_, va_, J);
+    for (int level = 1; level <= J; ++level) {
+        const int32_t begin = hierarchy_.num_samples(level - 1),
+                      end = hierarchy_.num_samples(level);
+        const double cell = 2 * std::sqrt(static_cast<double>(width_) * height_ / end);
+        const int cols = static_cast<int>(width_ / cell) + 2;
+        const int rows = static_cast<int>(height_ / cell) + 2;
+        std::vector<double> grid(3 * static_cast<size_t>(cols) * rows, 0.0);
+        auto corners = [&](Vec2 p, auto&& f) {
+            const double gx = std::clamp(p.x / cell, 0.0, cols - 1.0 - 1e-9);
+            const double gy = std::clamp(p.y / cell, 0.0, rows - 1.0 - 1e-9);
+            const int x0 = static_cast<int>(gx), y0 = static_cast<int>(gy);
+            const double fx = gx - x0, fy = gy - y0;
+            const size_t k = 3 * (static_cast<size_t>(y0) * cols + x0), down = 3 * size_t(cols);
+            f(k, (1 - fx) * (1 - fy));
+            f(k + 3, fx * (1 - fy));
+            f(k + down, (1 - fx) * fy);
+            f(k + down + 3, fx * fy);
+        };
+        for (int32_t i = begin; i < end; ++i) {
+            double aa = 0, bb = 0, ab = 0;
+            for (size_t c = 0; c < coeff_a_.size(); ++c) {
+                aa += double{coeff_a_[c][i]} * coeff_a_[c][i];
+                bb += double{coeff_b_[c][i]} * coeff_b_[c][i];
+                ab += double{coeff_a_[c][i]} * coeff_b_[c][i];
+            }
+            corners(position[i], [&](size_t k, double w) {
+                grid[k] += w * aa;
+                grid[k + 1] += w * bb;
+                grid[k + 2] += w * ab;
+            });
+        }
+        for (int32_t i = begin; i < end; ++i) {
+            double aa = 0, bb = 0, ab = 0;
+            corners(position[i], [&](size_t k, double w) {
+                aa += w * grid[k];
+                bb += w * grid[k + 1];
+                ab += w * grid[k + 2];
+            });
+            local_a_[i] = static_cast<float>(aa);
+            local_b_[i] = static_cast<float>(bb);
+            local_ab_[i] = static_cast<float>(ab);
+        }
+    }
+}
+
+double Morph::correspondence(int32_t i) const {
+    if (local_a_.empty() || i < hierarchy_.num_samples(0)) return 0;
+    const double aa = local_a_[i], bb = local_b_[i];
+    return aa > 0 && bb > 0 ? std::clamp(local_ab_[i] / std::sqrt(aa * bb), 0.0, 1.0) : 0.0;
 }
 
 std::vector<Vec2> Morph::geometry(double t) const {
     return interpolate_geometry(topology_, va_, vb_, options_.schedule.shape_weight(t));
 }
+
+namespace {
+
+// The aware schedule's weights of A and B for detail with local correlation c, energies aa and bb
+// and inner product ab at t, where the hand-over curve is at h: corresponding detail (c of 1/2 or
+// more counts in full) follows t with its energy kept (the gain, at most 2); the rest is handed
+// over with weights (1 - h)^p and h^p, from p = 1 for the coarsest detail (a soft blend of broad
+// shading is no ghost) to p = 2 for the finest (edges are what doubles).
+std::pair<float, float> aware_weights(double c, double aa, double bb, double ab, double t, double h,
+                                      double p) {
+    c = std::clamp((c - 0.1) / 0.3, 0.0, 1.0);
+    const double mixed = (1 - t) * (1 - t) * aa + t * t * bb + 2 * t * (1 - t) * ab;
+    const double target = (1 - t) * aa + t * bb;
+    const double gain = mixed > 0 ? std::min(2.0, std::sqrt(target / mixed)) : 1.0;
+    return {static_cast<float>(c * gain * (1 - t) + (1 - c) * std::pow(1 - h, p)),
+            static_cast<float>(c * gain * t + (1 - c) * std::pow(h, p))};
+}
+
+}  // namespace
 
 Planes Morph::blended(double t) const {
     if (!(t >= 0 && t <= 1)) throw Error(str("morph: t = ", t, " is outside [0, 1]"));
@@ -132,6 +214,16 @@ Planes Morph::blended(double t) const {
         for (int level = 0; level <= J; ++level) {
             const int32_t begin = level == 0 ? 0 : hierarchy_.num_samples(level - 1);
             const int32_t end = hierarchy_.num_samples(level == 0 ? 0 : level);
+            if (s.kind == ScheduleKind::aware && level > 0) {
+                const double h = s.handover(level, J + 1, t);
+                const double p = 1 + (J > 1 ? (level - 1.0) / (J - 1) : 1.0);
+                for (int32_t i = begin; i < end; ++i) {
+                    const auto [wa, wb] = aware_weights(correspondence(i), local_a_[i], local_b_[i],
+                                                        local_ab_[i], t, h, p);
+                    w[c][i] = wa * coeff_a_[c][i] + wb * coeff_b_[c][i];
+                }
+                continue;
+            }
             const float x = static_cast<float>(s.band_weight(level, J + 1, t));
             double energy = 0;
             for (int32_t i = begin; i < end; ++i) {
@@ -149,28 +241,64 @@ Planes Morph::blended(double t) const {
     return w;
 }
 
-void Morph::add_residuals(const RenderPlan& plan, double t, Image& out) const {
+void Morph::add_residuals(const RenderPlan& plan, double t, int side, Image& out) const {
     const int J = levels();
     const Schedule& s = options_.schedule;
     const float x = static_cast<float>(s.band_weight(J, J + 1, t));
     // Where each output pixel comes from in A and in B: the mesh map, rendered.
-    std::vector<std::vector<float>> warped[2];
+    std::vector<std::vector<float>> warped_residual[2];
     for (int k = 0; k < 2; ++k) {
+        if (side >= 0 && k != side) continue;
         const auto& position = k == 0 ? position_a_ : position_b_;
         std::vector<std::span<const float>> in(position.begin(), position.end());
         const Image from = render(plan, in, SampleFormat::f32);
         std::vector<Vec2> p(from.planes[0].size());
         for (size_t i = 0; i < p.size(); ++i) p[i] = {from.planes[0][i], from.planes[1][i]};
-        warped[k] = sample_bilinear(k == 0 ? residual_a_ : residual_b_, p);
+        warped_residual[k] = sample_bilinear(k == 0 ? residual_a_ : residual_b_, p);
+    }
+    if (side >= 0) {  // one endpoint alone
+        for (int c = 0; c < out.channels(); ++c) {
+            for (size_t i = 0; i < out.planes[c].size(); ++i) {
+                out.planes[c][i] += warped_residual[side][c][i];
+            }
+        }
+        return;
+    }
+    const auto& ra = warped_residual[0];
+    const auto& rb = warped_residual[1];
+    if (s.kind == ScheduleKind::aware) {
+        // The finest band, per pixel: local energies and inner product over a 7x7 window.
+        const size_t n = out.planes[0].size();
+        cv::Mat local[3];
+        for (cv::Mat& m : local) m = cv::Mat::zeros(out.height, out.width, CV_32F);
+        for (int c = 0; c < out.channels(); ++c) {
+            for (size_t i = 0; i < n; ++i) {
+                local[0].ptr<float>()[i] += ra[c][i] * ra[c][i];
+                local[1].ptr<float>()[i] += rb[c][i] * rb[c][i];
+                local[2].ptr<float>()[i] += ra[c][i] * rb[c][i];
+            }
+        }
+        for (cv::Mat& m : local) cv::boxFilter(m, m, -1, {7, 7});
+        const double h = s.handover(J + 1, J + 2, t);
+        for (size_t i = 0; i < n; ++i) {
+            const double aa = local[0].ptr<float>()[i], bb = local[1].ptr<float>()[i],
+                         ab = local[2].ptr<float>()[i];
+            const double corr =
+                aa > 0 && bb > 0 ? std::clamp(ab / std::sqrt(aa * bb), 0.0, 1.0) : 0.0;
+            const auto [wa, wb] = aware_weights(corr, aa, bb, ab, t, h, 2.0);
+            for (int c = 0; c < out.channels(); ++c) {
+                out.planes[c][i] += wa * ra[c][i] + wb * rb[c][i];
+            }
+        }
+        return;
     }
     for (int c = 0; c < out.channels(); ++c) {
         double ea = 0, eb = 0, e = 0;
         std::vector<float> blend(out.planes[c].size());
         for (size_t i = 0; i < blend.size(); ++i) {
-            const float ra = warped[0][c][i], rb = warped[1][c][i];
-            blend[i] = (1 - x) * ra + x * rb;
-            ea += double{ra} * ra;
-            eb += double{rb} * rb;
+            blend[i] = (1 - x) * ra[c][i] + x * rb[c][i];
+            ea += double{ra[c][i]} * ra[c][i];
+            eb += double{rb[c][i]} * rb[c][i];
             e += double{blend[i]} * blend[i];
         }
         // sharp: the residual is the finest band, rescaled like the others.
@@ -194,20 +322,28 @@ std::vector<double> Morph::detail_energy(double t) const {
     return e;
 }
 
-Image Morph::frame(double t, const FrameOptions& options) const {
-    Planes w = blended(t);
+Image Morph::render_at(Planes w, double t, bool preview, int side) const {
     const std::vector<Vec2> v = geometry(t);
-    const Hierarchy& h = options.preview ? preview_ : hierarchy_;
+    const Hierarchy& h = preview ? preview_ : hierarchy_;
     const int32_t n = h.num_samples(h.finest());
-    if (options.preview) {
+    if (preview) {
         for (auto& plane : w) plane.resize(n);  // nested numbering: T_J' is a prefix
     }
     inverse_transform(h, spans(w));
     const RenderPlan plan = plan_render(h, v, width_, height_, width_, height_);
     std::vector<std::span<const float>> in(w.begin(), w.end());
     Image out = render(plan, in, SampleFormat::u8);
-    if (options_.residual && !options.preview) add_residuals(plan, t, out);
+    if (options_.residual && !preview) add_residuals(plan, t, side, out);
     return out;
+}
+
+Image Morph::frame(double t, const FrameOptions& options) const {
+    return render_at(blended(t), t, options.preview, -1);
+}
+
+Image Morph::warped(double t, int side) const {
+    if (!(t >= 0 && t <= 1)) throw Error(str("morph: t = ", t, " is outside [0, 1]"));
+    return render_at(side == 0 ? coeff_a_ : coeff_b_, t, false, side == 0 ? 0 : 1);
 }
 
 }  // namespace tesswave::morph

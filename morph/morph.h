@@ -56,9 +56,16 @@ class Morph {
     // The T0 vertices at t (output pixels), repaired if they fold.
     std::vector<Vec2> geometry(double t) const;
 
+    // Image A (side 0) or B (side 1) alone on the geometry at t: the warped endpoint that
+    // measures of ghosting compare the frame at t with.
+    Image warped(double t, int side) const;
+
     // For tests and reports: the samples of A and B on their meshes (level J), the coefficients
     // blended at t before reconstruction, and the energy (sum of squares over channels) of each
     // detail level of those coefficients (index j: the details of step j).
+    // With the aware schedule, `correspondence(i)` is detail coefficient i's local correlation
+    // between A and B in [0, 1] (0 for the base).
+    double correspondence(int32_t i) const;
     const std::vector<std::vector<float>>& samples_a() const { return samples_a_; }
     const std::vector<std::vector<float>>& samples_b() const { return samples_b_; }
     std::vector<std::vector<float>> blended(double t) const;
@@ -70,7 +77,11 @@ class Morph {
     int height() const { return height_; }
 
   private:
-    void add_residuals(const RenderPlan& plan, double t, Image& out) const;
+    // The residuals at t (side -1: blended by the schedule; 0 or 1: that image's alone).
+    void add_residuals(const RenderPlan& plan, double t, int side, Image& out) const;
+    Image render_at(std::vector<std::vector<float>> coefficients, double t, bool preview,
+                    int side) const;
+    void measure_agreement();
 
     MorphOptions options_;
     int width_ = 0, height_ = 0;
@@ -81,6 +92,9 @@ class Morph {
     std::vector<std::vector<double>> energy_a_, energy_b_;     // [channel][detail level]
     Image residual_a_, residual_b_;                            // image minus its resampling
     std::vector<std::vector<float>> position_a_, position_b_;  // T_J sample positions (x, y)
+    // aware: per detail coefficient, the local energies of A's and B's detail and their inner
+    // product (over channels, smoothed over the coefficient's neighbourhood on its level).
+    std::vector<float> local_a_, local_b_, local_ab_;
 };
 
 }  // namespace tesswave::morph

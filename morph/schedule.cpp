@@ -40,6 +40,12 @@ double Schedule::band_weight(int level, int count, double t) const {
     return ease(w, t);
 }
 
+double Schedule::handover(int level, int count, double t) const {
+    const Window w =
+        level < static_cast<int>(levels.size()) ? levels[level] : default_window(level, count);
+    return ease(w, t);
+}
+
 double Schedule::shape_weight(double t) const {
     if (shape.start == 0 && shape.end == 1) return t;  // the plain linear shape curve
     return ease(shape, t);
@@ -49,7 +55,8 @@ ScheduleKind parse_schedule_kind(const std::string& text) {
     if (text == "linear") return ScheduleKind::linear;
     if (text == "bands") return ScheduleKind::bands;
     if (text == "sharp") return ScheduleKind::sharp;
-    throw Error(str("unknown schedule '", text, "' (linear, bands or sharp)"));
+    if (text == "aware") return ScheduleKind::aware;
+    throw Error(str("unknown schedule '", text, "' (aware, linear, bands or sharp)"));
 }
 
 std::vector<Window> parse_level_windows(const std::string& text, int levels) {

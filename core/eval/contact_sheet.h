@@ -22,4 +22,8 @@ Image contact_sheet(const std::vector<Image>& tiles, const std::vector<std::stri
 // The centred crop of at most width x height pixels.
 Image centre_crop(const Image& image, int width, int height);
 
+// The crop [x0, x0 + width) x [y0, y0 + height), clipped to the image, resized to scale times its
+// size (area averaging down, bilinear up), for tiles of one size from pictures of another.
+Image crop_scaled(const Image& image, int x0, int y0, int width, int height, double scale);
+
 }  // namespace tesswave

@@ -51,4 +51,15 @@ if ((status == 1)) && [[ ! -e $dir/faces.png ]] && (($(wc -l <"$dir/err.txt") ==
 else
     fail "--faces without a face: exit $status: $(cat "$dir/err.txt")"
 fi
+# compare-morph: a sheet and, for scripts, the measures of the five methods.
+check "compare-morph" "$tesswave" compare-morph "$s/pair_a.png" "$s/pair_b.png" \
+    --points-a "$s/pair_a.txt" --points-b "$s/pair_b.txt" -o "$dir/sheet.png" --json
+if [[ -s $dir/sheet.png ]] && grep -q '"aware (default)"' "$dir/out.txt" &&
+    grep -q '"classic"' "$dir/out.txt" && grep -q '"ghost"' "$dir/out.txt"; then
+    pass "compare-morph wrote the sheet and the measures"
+else
+    fail "compare-morph: $(head -c 300 "$dir/out.txt")"
+fi
+refuse "compare-morph -o x.mp4" "$dir/x.mp4" "$tesswave" compare-morph "$s/pair_a.png" \
+    "$s/pair_b.png" -o "$dir/x.mp4"
 finish
