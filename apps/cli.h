@@ -116,6 +116,15 @@ inline CLI::Option* add_sampling_option(CLI::App* cmd, std::string& value) {
         ->check(CLI::IsMember({"point", "fit"}));
 }
 
+// --crf N, one meaning wherever frames go to a FrameSink: H.264's quality for .mp4/.mov output.
+inline CLI::Option* add_crf_option(CLI::App* cmd, int& value) {
+    return cmd
+        ->add_option("--crf", value,
+                     "H.264 quality of .mp4/.mov output: 0 lossless .. 51 (x264's scale)")
+        ->capture_default_str()
+        ->check(CLI::Range(0, 51));
+}
+
 // The analyze job, shared by `tesswave analyze` and the demo.
 struct AnalyzeRequest {
     std::string image, mesh, output;  // mesh: a --mesh spec (empty: the paper's T0)

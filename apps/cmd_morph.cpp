@@ -3,9 +3,12 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <deque>
 #include <filesystem>
+#include <future>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <thread>
 
 #include "cli.h"
 #include "core/eval/contact_sheet.h"
@@ -28,11 +31,14 @@ namespace fs = std::filesystem;
 namespace tesswave::cli {
 namespace {
 
+constexpr int kGifSide = 320;  // default longest side of a GIF morph (about 1.5 MB for 30 frames)
+
 struct MorphArgs {
     std::string a, b, output, points_a, points_b, triangles, mesh, schedule = "aware", bands,
                                                                    schedule_file, shape, size;
-    bool automatic = false, faces = false, preview = false, overwrite = false, json = false;
-    int frames = 30, levels = 0;
+    bool automatic = false, faces = false, preview = false, overwrite = false, json = false,
+         loop = false;
+    int frames = 30, levels = 0, crf = 18;
     double fps = 25, at = -1, density = 2.0;
     std::string sampling = "point";  // MorphOptions says why
 };
@@ -175,6 +181,13 @@ void run_morph(const MorphArgs& a) {
         auto [w, h] = parse_cells(a.size, "--size");
         o.width = w;
         o.height = h;
+    } else if (fs::path(a.output).extension() == ".gif" && a.at < 0 &&
+               std::max(ia.width, ia.height) > kGifSide) {
+        // GIFs stay small: at most kGifSide pixels a side unless --size says otherwise.
+        const double s = static_cast<double>(kGifSide) / std::max(ia.width, ia.height);
+        o.width = std::max(1, static_cast<int>(std::lround(ia.width * s)));
+        o.height = std::max(1, static_cast<int>(std::lround(ia.height * s)));
+        warn(str("note: the GIF is ", o.width, "x", o.height, " (--size WxH for another size)"));
     }
     // Schedules name the levels 0 (base) .. J.
     o.levels = morph::morph_levels(pair.a, o.width > 0 ? o.width : ia.width,
@@ -188,14 +201,29 @@ void run_morph(const MorphArgs& a) {
     if (a.at >= 0) {
         write_image(morph.frame(a.at, fo), a.output);
     } else {
-        FrameSink sink(a.output, morph.width(), morph.height(), a.fps);
-        for (int k = 0; k < a.frames; ++k) {
-            bar.update(setup + (1 - setup) * k / a.frames, "frames");
-            const double t = a.frames == 1 ? 0.0 : static_cast<double>(k) / (a.frames - 1);
-            sink.write(morph.frame(t, fo));
+        FrameSink sink(a.output, morph.width(), morph.height(), a.fps, a.crf);
+        // --loop: A to B and back, without showing B or A twice in a row.
+        const int total = a.loop && a.frames > 1 ? 2 * a.frames - 2 : a.frames;
+        auto time_of = [&](int k) {
+            const int step = k < a.frames ? k : 2 * (a.frames - 1) - k;
+            return a.frames == 1 ? 0.0 : static_cast<double>(step) / (a.frames - 1);
+        };
+        // Frames are independent: one per core at a time, written in order.
+        const int lanes = std::max(1u, std::min(8u, std::thread::hardware_concurrency()));
+        std::deque<std::future<Image>> pending;
+        for (int k = 0, next = 0; k < total; ++k) {
+            for (; next < total && next < k + lanes; ++next) {
+                pending.push_back(std::async(std::launch::async, [&morph, &fo, t = time_of(next)] {
+                    return morph.frame(t, fo);
+                }));
+            }
+            bar.update(setup + (1 - setup) * k / total, "frames");
+            Image frame = pending.front().get();
+            pending.pop_front();
+            sink.write(frame);
         }
         sink.finish();
-        report["frames"] = a.frames;
+        report["frames"] = total;
     }
     bar.update(1.0, "done");
     report["seconds"] = seconds_since(start);
@@ -379,6 +407,8 @@ void add_morph_commands(CLI::App& app) {
     cmd->add_option("--fps", a->fps, "Frames per second of MP4/GIF output")
         ->capture_default_str()
         ->check(CLI::Range(0.1, 1000.0));
+    cmd->add_flag("--loop", a->loop, "A to B and back to A (2N - 2 frames)");
+    add_crf_option(cmd, a->crf);
     cmd->add_option("--at", a->at, "Only the frame at this t, to an image")
         ->check(CLI::Range(0.0, 1.0));
     cmd->add_flag("--preview", a->preview, "Render from the coarse bands only (fast look-ups)");

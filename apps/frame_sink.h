@@ -16,7 +16,8 @@ namespace tesswave::cli {
 
 class FrameSink {
   public:
-    FrameSink(const std::string& path, int width, int height, double fps);
+    // crf: H.264's constant rate factor for .mp4/.mov (0 lossless .. 51).
+    FrameSink(const std::string& path, int width, int height, double fps, int crf = 18);
     ~FrameSink();
     void write(const Image& frame);
     void finish();

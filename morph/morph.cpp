@@ -38,6 +38,28 @@ std::vector<Vec2> scaled(const Mesh& m, double W, double H) {
     return v;
 }
 
+// How much detail with local correlation c counts as corresponding: none up to 0.1, all from 0.4.
+double corresponding(double c) { return std::clamp((c - 0.1) / 0.3, 0.0, 1.0); }
+
+// The aware schedule's weights of A and B for detail that corresponds to the degree k, with local
+// energies aa and bb and inner product ab, at t: corresponding detail follows t with its energy
+// kept (the gain, at most 2); the rest is handed over with the weights (ha, hb) of its level.
+std::pair<float, float> aware_weights(double k, double aa, double bb, double ab, double t,
+                                      double ha, double hb) {
+    const double mixed = (1 - t) * (1 - t) * aa + t * t * bb + 2 * t * (1 - t) * ab;
+    const double target = (1 - t) * aa + t * bb;
+    const double gain = mixed > 0 ? std::min(2.0, std::sqrt(target / mixed)) : 1.0;
+    return {static_cast<float>(k * gain * (1 - t) + (1 - k) * ha),
+            static_cast<float>(k * gain * t + (1 - k) * hb)};
+}
+
+// The hand-over weights of non-corresponding detail on a level whose curve is at h: (1 - h)^p
+// and h^p, from p = 1 for the coarsest detail (a soft blend of broad shading is no ghost) to
+// p = 2 for the finest (edges are what doubles).
+std::pair<double, double> handover_weights(double h, double p) {
+    return {std::pow(1 - h, p), std::pow(h, p)};
+}
+
 }  // namespace
 
 int morph_levels(const Mesh& mesh_a, int width, int height, const MorphOptions& options) {
@@ -174,6 +196,10 @@ void Morph::measure_agreement() {
             local_ab_[i] = static_cast<float>(ab);
         }
     }
+    corresponding_.assign(n, 0.0f);
+    for (int32_t i = hierarchy_.num_samples(0); i < n; ++i) {
+        corresponding_[i] = static_cast<float>(corresponding(correspondence(i)));
+    }
 }
 
 double Morph::correspondence(int32_t i) const {
@@ -186,25 +212,6 @@ std::vector<Vec2> Morph::geometry(double t) const {
     return interpolate_geometry(topology_, va_, vb_, options_.schedule.shape_weight(t));
 }
 
-namespace {
-
-// The aware schedule's weights of A and B for detail with local correlation c, energies aa and bb
-// and inner product ab at t, where the hand-over curve is at h: corresponding detail (c of 1/2 or
-// more counts in full) follows t with its energy kept (the gain, at most 2); the rest is handed
-// over with weights (1 - h)^p and h^p, from p = 1 for the coarsest detail (a soft blend of broad
-// shading is no ghost) to p = 2 for the finest (edges are what doubles).
-std::pair<float, float> aware_weights(double c, double aa, double bb, double ab, double t, double h,
-                                      double p) {
-    c = std::clamp((c - 0.1) / 0.3, 0.0, 1.0);
-    const double mixed = (1 - t) * (1 - t) * aa + t * t * bb + 2 * t * (1 - t) * ab;
-    const double target = (1 - t) * aa + t * bb;
-    const double gain = mixed > 0 ? std::min(2.0, std::sqrt(target / mixed)) : 1.0;
-    return {static_cast<float>(c * gain * (1 - t) + (1 - c) * std::pow(1 - h, p)),
-            static_cast<float>(c * gain * t + (1 - c) * std::pow(h, p))};
-}
-
-}  // namespace
-
 Planes Morph::blended(double t) const {
     if (!(t >= 0 && t <= 1)) throw Error(str("morph: t = ", t, " is outside [0, 1]"));
     const int J = levels();
@@ -215,12 +222,15 @@ Planes Morph::blended(double t) const {
             const int32_t begin = level == 0 ? 0 : hierarchy_.num_samples(level - 1);
             const int32_t end = hierarchy_.num_samples(level == 0 ? 0 : level);
             if (s.kind == ScheduleKind::aware && level > 0) {
-                const double h = s.handover(level, J + 1, t);
+                if (c > 0) continue;  // all channels are blended with channel 0
                 const double p = 1 + (J > 1 ? (level - 1.0) / (J - 1) : 1.0);
+                const auto [ha, hb] = handover_weights(s.handover(level, J + 1, t), p);
                 for (int32_t i = begin; i < end; ++i) {
-                    const auto [wa, wb] = aware_weights(correspondence(i), local_a_[i], local_b_[i],
-                                                        local_ab_[i], t, h, p);
-                    w[c][i] = wa * coeff_a_[c][i] + wb * coeff_b_[c][i];
+                    const auto [wa, wb] = aware_weights(corresponding_[i], local_a_[i], local_b_[i],
+                                                        local_ab_[i], t, ha, hb);
+                    for (size_t k = 0; k < w.size(); ++k) {
+                        w[k][i] = wa * coeff_a_[k][i] + wb * coeff_b_[k][i];
+                    }
                 }
                 continue;
             }
@@ -279,13 +289,13 @@ void Morph::add_residuals(const RenderPlan& plan, double t, int side, Image& out
             }
         }
         for (cv::Mat& m : local) cv::boxFilter(m, m, -1, {7, 7});
-        const double h = s.handover(J + 1, J + 2, t);
+        const auto [ha, hb] = handover_weights(s.handover(J + 1, J + 2, t), 2.0);
         for (size_t i = 0; i < n; ++i) {
             const double aa = local[0].ptr<float>()[i], bb = local[1].ptr<float>()[i],
                          ab = local[2].ptr<float>()[i];
             const double corr =
                 aa > 0 && bb > 0 ? std::clamp(ab / std::sqrt(aa * bb), 0.0, 1.0) : 0.0;
-            const auto [wa, wb] = aware_weights(corr, aa, bb, ab, t, h, 2.0);
+            const auto [wa, wb] = aware_weights(corresponding(corr), aa, bb, ab, t, ha, hb);
             for (int c = 0; c < out.channels(); ++c) {
                 out.planes[c][i] += wa * ra[c][i] + wb * rb[c][i];
             }

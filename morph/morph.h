@@ -95,6 +95,7 @@ class Morph {
     // aware: per detail coefficient, the local energies of A's and B's detail and their inner
     // product (over channels, smoothed over the coefficient's neighbourhood on its level).
     std::vector<float> local_a_, local_b_, local_ab_;
+    std::vector<float> corresponding_;  // how far each counts as corresponding, 0..1
 };
 
 }  // namespace tesswave::morph

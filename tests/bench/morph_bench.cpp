@@ -206,6 +206,10 @@ const Morph& prepared_morph(ScheduleKind kind) {
         static const Morph sharp = make(ScheduleKind::sharp);
         return sharp;
     }
+    if (kind == ScheduleKind::aware) {
+        static const Morph aware = make(ScheduleKind::aware);
+        return aware;
+    }
     static const Morph linear = make(ScheduleKind::linear);
     return linear;
 }
@@ -329,6 +333,7 @@ BENCHMARK(BM_Morph_classic_with_maps)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_Morph_frame, linear, ScheduleKind::linear, false)
     ->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_Morph_frame, sharp, ScheduleKind::sharp, false)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_Morph_frame, aware, ScheduleKind::aware, false)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_Morph_frame, linear_preview, ScheduleKind::linear, true)
     ->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_Morph_frame, sharp_preview, ScheduleKind::sharp, true)

@@ -51,6 +51,26 @@ if ((status == 1)) && [[ ! -e $dir/faces.png ]] && (($(wc -l <"$dir/err.txt") ==
 else
     fail "--faces without a face: exit $status: $(cat "$dir/err.txt")"
 fi
+# --loop: A to B and back in 2N - 2 frames, PNG names with a zero-padded counter; --crf for MP4.
+check "morph --loop to PNG frames" "$tesswave" morph "$s/pair_a.png" "$s/pair_b.png" \
+    --points-a "$s/pair_a.txt" --points-b "$s/pair_b.txt" --frames 4 --loop -o "$dir/loop"
+if [[ "$(ls "$dir/loop" | tr '\n' ' ')" == "frame_00000.png frame_00001.png frame_00002.png frame_00003.png frame_00004.png frame_00005.png " ]] &&
+    cmp -s "$dir/loop/frame_00001.png" "$dir/loop/frame_00005.png"; then
+    pass "six frames, the way back mirrors the way there"
+else
+    fail "loop frames: $(ls "$dir/loop" | tr '\n' ' ')"
+fi
+check "morph --crf 40" "$tesswave" morph "$s/pair_a.png" "$s/pair_b.png" --points-a "$s/pair_a.txt" \
+    --points-b "$s/pair_b.txt" --frames 6 --crf 40 -o "$dir/low.mp4"
+check "morph --crf 10" "$tesswave" morph "$s/pair_a.png" "$s/pair_b.png" --points-a "$s/pair_a.txt" \
+    --points-b "$s/pair_b.txt" --frames 6 --crf 10 -o "$dir/high.mp4"
+if (($(stat -c %s "$dir/low.mp4") < $(stat -c %s "$dir/high.mp4"))); then
+    pass "--crf 40 is smaller than --crf 10"
+else
+    fail "--crf does not change the size"
+fi
+refuse "morph --crf 60" "$dir/bad.mp4" "$tesswave" morph "$s/pair_a.png" "$s/pair_b.png" \
+    --crf 60 -o "$dir/bad.mp4"
 # compare-morph: a sheet and, for scripts, the measures of the five methods.
 check "compare-morph" "$tesswave" compare-morph "$s/pair_a.png" "$s/pair_b.png" \
     --points-a "$s/pair_a.txt" --points-b "$s/pair_b.txt" -o "$dir/sheet.png" --json
