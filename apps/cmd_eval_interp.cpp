@@ -95,7 +95,9 @@ Image rgb(Image image) {
     return image;
 }
 
-const char* const kMethods[] = {"cross-dissolve", "linear", "bands", "sharp", "minterpolate"};
+// "inbetween" is `tesswave inbetween`: linear with the flow fallback (morph/inbetween.h).
+const char* const kMethods[] = {"cross-dissolve", "linear",    "bands",
+                                "sharp",          "inbetween", "minterpolate"};
 
 struct EvalArgs {
     std::vector<std::string> dirs;
@@ -111,6 +113,7 @@ void run_eval(const EvalArgs& a) {
     const fs::path dir(a.output);
     nlohmann::json report = {{"sequences", nlohmann::json::array()}};
     std::map<std::string, std::pair<double, double>> sums;
+    std::pair<double, double> seconds;  // inbetween, minterpolate
     ProgressBar bar;
     std::printf("%-16s", "sequence");
     for (const char* m : kMethods) std::printf(" %15s", m);
@@ -132,8 +135,21 @@ void run_eval(const EvalArgs& a) {
             const morph::MorphOptions o{.density = a.density, .schedule = {.kind = k}};
             results.push_back(morph::Morph(f0, f1, pair.a, pair.b, o).frame(0.5));
         }
+        // The two timed methods, whole: ours from the frames to the frame, and FFmpeg's.
+        morph::InbetweenOptions io;
+        io.cell = a.cell;
+        io.morph.density = a.density;
+        auto clock = std::chrono::steady_clock::now();
+        results.push_back(morph::inbetween(f0, f1, 0.5, io));
+        const double ours = seconds_since(clock);
+        clock = std::chrono::steady_clock::now();
         results.push_back(minterpolate_middle(f0, f1));
-        nlohmann::json row = {{"sequence", q.name}, {"methods", nlohmann::json::object()}};
+        const double theirs = seconds_since(clock);
+        seconds.first += ours;
+        seconds.second += theirs;
+        nlohmann::json row = {{"sequence", q.name},
+                              {"methods", nlohmann::json::object()},
+                              {"seconds", {{"inbetween", ours}, {"minterpolate", theirs}}}};
         std::vector<Image> tiles = {truth};
         std::vector<std::string> captions = {q.name + ": truth"};
         std::printf("%-16s", q.name.c_str());
@@ -153,7 +169,7 @@ void run_eval(const EvalArgs& a) {
             tiles.push_back(error_map(results[m], truth));
             captions.push_back(kMethods[m]);
         }
-        write_image(contact_sheet(tiles, captions, {.columns = 6}),
+        write_image(contact_sheet(tiles, captions, {.columns = 7}),
                     (dir / str("sheet_", q.name, ".png")).string());
         report["sequences"].push_back(row);
     }
@@ -165,6 +181,9 @@ void run_eval(const EvalArgs& a) {
         std::printf("   %6.2f/%.4f", p, ss);
     }
     std::printf("\n");
+    report["seconds"] = {{"inbetween", seconds.first}, {"minterpolate", seconds.second}};
+    std::printf("time for all frames: inbetween %.2f s, minterpolate %.2f s (%.2fx its speed)\n",
+                seconds.first, seconds.second, seconds.second / std::max(1e-9, seconds.first));
     write_file_atomic((dir / "eval.json").string(), report.dump(2) + "\n");
     if (a.json) std::printf("%s\n", report.dump(2).c_str());
     std::printf("outputs in %s (eval.json, sheet_*.png)\n", a.output.c_str());

@@ -14,9 +14,14 @@ namespace tesswave::morph {
 struct InbetweenOptions {
     double cell = 10;  // grid cell size in pixels of the first frame
     MorphOptions morph = {.density = 3.5, .schedule = {.kind = ScheduleKind::linear}};
+    // Where the mesh's warps of the two frames disagree (small fast objects without
+    // correspondences, occlusions), take the frame from dense optical flow (DIS, both ways)
+    // as far as its warps agree better; needs frames of one size and channel count.
+    bool flow_fallback = true;
 };
 
 // The meshes of the pair: a cell-sized grid on f0 fitted to automatic correspondences on f1.
+// The frame at t is the morph's, with the flow fallback of InbetweenOptions.
 PairMeshes automatic_pair(const Image& f0, const Image& f1, double cell);
 
 Image inbetween(const Image& f0, const Image& f1, double t, const InbetweenOptions& options = {});
