@@ -62,27 +62,33 @@ sanitize)
     ;;
 fuzz)  # ./run.sh fuzz [seconds per target]: libFuzzer runs from the sample meshes
     DEBIAN_FRONTEND=noninteractive $([[ $(id -u) -eq 0 ]] || echo sudo) apt-get install -y -qq clang >/dev/null
-    CXX=clang++ build build-fuzz -DTESSWAVE_BUILD_FUZZERS=ON -DTESSWAVE_BUILD_TESTS=OFF
+    # Only the four targets are built with clang and the sanitizers; the seeds are written by the
+    # release binary that test and demo build (a no-op when ./run.sh test ran first).
+    fuzzers=(mesh_fuzz points_fuzz twi_fuzz twv_fuzz)
+    CXX=clang++ build build-fuzz -DTESSWAVE_BUILD_FUZZERS=ON -DTESSWAVE_BUILD_TESTS=OFF \
+        -- --target "${fuzzers[@]}"
+    build build "${main_build[@]}" -- --target tesswave
+    tesswave=./build/apps/tesswave
     mkdir -p build-fuzz/corpus
-    ./build-fuzz/apps/tesswave samples -y -o build-fuzz/corpus >/dev/null
+    $tesswave samples -y -o build-fuzz/corpus >/dev/null
     # .twi seeds: a 40x30 image in every mode, 300 to 2000 bytes, so that each run decodes quickly.
     small=build-fuzz/twi-samples
-    ./build-fuzz/apps/tesswave samples -y --size 40x30 -o $small >/dev/null
+    $tesswave samples -y --size 40x30 -o $small >/dev/null
     i=0
     for mode in "--bpp 4" "--bpp 4 --aligned" "--bpp 4 --mesh $small/paper_t0.json" \
         "--bpp 4 --grid 53" "--bpp 2 --grid 97" "--lossless" "--lossless --grid 53"; do
         # $mode unquoted: it is several options.
-        ./build-fuzz/apps/tesswave compress $small/scene.png $mode -y \
+        $tesswave compress $small/scene.png $mode -y \
             -o build-fuzz/corpus/seed$((i++)).twi >/dev/null
     done
     # .twv seeds: 6 frames of the 176x144 sample clip in each mode (lifted groups by default, and
     # low-delay ones), about 2 kB each.
     for mode in "" "--motion none" "--grid 53" "--low-delay" "--low-delay --grid 97 --intra-weight 2"; do
         # $mode unquoted: it is several options.
-        ./build-fuzz/apps/tesswave encode $small/clip.mkv --frames 6 -g 3 --kbps 60 $mode -y \
+        $tesswave encode $small/clip.mkv --frames 6 -g 3 --kbps 60 $mode -y \
             -o build-fuzz/corpus/seed$((i++)).twv >/dev/null
     done
-    for t in mesh_fuzz points_fuzz twi_fuzz twv_fuzz; do
+    for t in "${fuzzers[@]}"; do
         ./build-fuzz/tests/$t -max_total_time="${2:-60}" -print_final_stats=1 build-fuzz/corpus
     done
     ;;
