@@ -194,6 +194,10 @@ void run_compare(const CompareArgs& a) {
         if (image.format != SampleFormat::u8) {
             throw Error(str(path, ": compare works on 8-bit images (JPEG 2000 peer is 8-bit)"));
         }
+        if (image.width < 8 || image.height < 8) {
+            throw Error(str(path, ": ", image.width, "x", image.height,
+                            " pixels; compare measures SSIM, which needs at least 8x8"));
+        }
         images.push_back(std::move(image));
     }
     prepare_folder(a.output, a.overwrite, a.images);

@@ -127,6 +127,10 @@ void run_eval(const EvalArgs& a) {
             truth.height != f0.height) {
             throw Error(str(q.name, ": the three frames differ in size"));
         }
+        if (truth.width < 16 || truth.height < 16) {
+            throw Error(str(q.truth, ": ", truth.width, "x", truth.height,
+                            " pixels; eval-interp needs at least 16x16 frames"));
+        }
         std::vector<Image> results;
         results.push_back(dissolve(f0, f1));
         const morph::PairMeshes pair = morph::automatic_pair(f0, f1, a.cell);

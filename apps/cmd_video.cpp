@@ -173,6 +173,12 @@ void run_encode(const EncodeArgs& a) {
         ++given;
     }
     coded(encoder->flush());
+    // A container that declares more frames than its stream holds was cut (libav reads a cut
+    // .mkv or .mp4 to its end without an error).
+    if (a.max_frames <= 0 && total > 0 && given + 1 < total * 0.95) {
+        warn(str("warning: ", a.input, ": the stream ends after ", given, " frames of the ", total,
+                 " its container declares (a cut file?)"));
+    }
     const int64_t bytes = encoder->finish();
     const double seconds = seconds_since(start);
     const double fps = encoder->header().fps();

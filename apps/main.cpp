@@ -51,6 +51,19 @@ std::string one_line(std::string text) {
     return out;
 }
 
+// The first positional argument of the deepest subcommand that ran (its input file, in every
+// command that reads one): what an out-of-memory message names.
+std::string first_positional(const CLI::App& app) {
+    for (const CLI::App* sub : app.get_subcommands()) {
+        const std::string deeper = first_positional(*sub);
+        if (!deeper.empty()) return deeper;
+        for (const CLI::Option* o : sub->get_options()) {
+            if (o->get_positional() && o->count() > 0) return o->results().front();
+        }
+    }
+    return {};
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -111,7 +124,9 @@ int main(int argc, char** argv) {
         std::fprintf(stderr, "tesswave: %s\n", one_line(e.what()).c_str());
         return 1;
     } catch (const std::bad_alloc&) {
-        std::fprintf(stderr, "tesswave: out of memory\n");
+        const std::string input = first_positional(app);
+        std::fprintf(stderr, "tesswave: %sout of memory\n",
+                     input.empty() ? "" : (input + ": ").c_str());
         return 1;
     } catch (const std::exception& e) {
         std::fprintf(stderr, "tesswave: internal error: %s\n", one_line(e.what()).c_str());

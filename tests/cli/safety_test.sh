@@ -79,4 +79,38 @@ else
     fail "the hard-linked input changed"
 fi
 
+# Nothing dropped silently, every message names its file: a half-cut .mkv (libav reads it to its
+# end without an error), a 1x1 image for compare, and running out of memory.
+size=$(stat -c %s "$dir/s/clip.mkv")
+head -c $((size / 2)) "$dir/s/clip.mkv" >"$dir/half.mkv"
+check "encode a half-cut .mkv" "$tesswave" encode "$dir/half.mkv" -o "$dir/half.twv"
+if grep -q "half.mkv: the stream ends after [0-9]* frames of the 48 its container declares" \
+    "$dir/err.txt"; then
+    pass "the cut is said: $(grep half.mkv "$dir/err.txt")"
+else
+    fail "no warning on the cut .mkv: $(cat "$dir/err.txt")"
+fi
+status=0
+printf 'P6\n1 1\n255\n\x80\x80\x80' >"$dir/one.ppm"
+"$tesswave" compare "$dir/one.ppm" -o "$dir/c1" 2>"$dir/err.txt" || status=$?
+if ((status == 1)) && grep -q "one.ppm: 1x1 pixels" "$dir/err.txt" && [[ ! -e $dir/c1 ]]; then
+    pass "compare of a 1x1 image names it: $(cat "$dir/err.txt")"
+else
+    fail "compare of a 1x1 image: exit $status: $(cat "$dir/err.txt")"
+fi
+# Under AddressSanitizer the address-space cap cannot apply (its shadow memory alone is larger).
+if ldd "$tesswave" | grep -q libasan; then
+    echo "note: out of memory not checked: the binary is built with AddressSanitizer"
+else
+    "$tesswave" samples -o "$dir/big" --size 3000x2000 -q
+    status=0
+    (ulimit -v 1500000 && "$tesswave" compress "$dir/big/scene.png" --density 6 -o "$dir/big.twi") \
+        2>"$dir/err.txt" || status=$?
+    if ((status == 1)) && grep -q "big/scene.png: out of memory" "$dir/err.txt" && [[ ! -e $dir/big.twi ]]; then
+        pass "out of memory names the input: $(cat "$dir/err.txt")"
+    else
+        fail "out of memory: exit $status: $(cat "$dir/err.txt")"
+    fi
+fi
+
 finish
