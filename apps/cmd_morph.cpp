@@ -8,7 +8,6 @@
 #include <future>
 #include <memory>
 #include <nlohmann/json.hpp>
-#include <thread>
 
 #include "cli.h"
 #include "core/eval/contact_sheet.h"
@@ -17,6 +16,7 @@
 #include "core/io/image_io.h"
 #include "core/io/mesh_io.h"
 #include "core/math/error.h"
+#include "core/math/parallel.h"
 #include "core/math/project.h"
 #include "core/math/strings.h"
 #include "frame_sink.h"
@@ -209,7 +209,7 @@ void run_morph(const MorphArgs& a) {
             return a.frames == 1 ? 0.0 : static_cast<double>(step) / (a.frames - 1);
         };
         // Frames are independent: one per core at a time, written in order.
-        const int lanes = std::max(1u, std::min(8u, std::thread::hardware_concurrency()));
+        const int lanes = std::clamp(thread_count(), 1, 8);
         std::deque<std::future<Image>> pending;
         for (int k = 0, next = 0; k < total; ++k) {
             for (; next < total && next < k + lanes; ++next) {

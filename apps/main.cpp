@@ -12,6 +12,7 @@
 #include "cli.h"
 #include "core/io/file_io.h"
 #include "core/math/error.h"
+#include "core/math/parallel.h"
 
 namespace {
 
@@ -85,6 +86,20 @@ int main(int argc, char** argv) {
         const std::string arg = argv[i];
         if (arg == "-q" || arg == "--quiet") quiet = true;
         if (arg == "-v" || arg == "--verbose") verbose = true;
+    }
+    int threads = 0;
+    app.add_option("--threads", threads,
+                   "Threads to use (default 0: all cores); output is the same")
+        ->check(CLI::Range(0, 256));
+    // Also known before any subcommand runs; CLI11 checks the value as it parses.
+    for (int i = 1; i < argc; ++i) {
+        const std::string arg = argv[i];
+        const std::string value = arg.rfind("--threads=", 0) == 0      ? arg.substr(10)
+                                  : arg == "--threads" && i + 1 < argc ? argv[i + 1]
+                                                                       : std::string();
+        char* end = nullptr;
+        const long n = value.empty() ? -1 : std::strtol(value.c_str(), &end, 10);
+        if (end && *end == 0 && n >= 0 && n <= 256) tesswave::set_thread_count(static_cast<int>(n));
     }
     bool json = false;
     for (int i = 1; i < argc; ++i) json = json || std::string(argv[i]) == "--json";

@@ -6,6 +6,7 @@
 
 #include "core/math/error.h"
 #include "core/math/lifting.h"
+#include "core/math/parallel.h"
 #include "core/math/project.h"
 #include "core/math/render.h"
 #include "core/math/sampling.h"
@@ -290,16 +291,21 @@ void Morph::add_residuals(const RenderPlan& plan, double t, int side, Image& out
         }
         for (cv::Mat& m : local) cv::boxFilter(m, m, -1, {7, 7});
         const auto [ha, hb] = handover_weights(s.handover(J + 1, J + 2, t), 2.0);
-        for (size_t i = 0; i < n; ++i) {
-            const double aa = local[0].ptr<float>()[i], bb = local[1].ptr<float>()[i],
-                         ab = local[2].ptr<float>()[i];
-            const double corr =
-                aa > 0 && bb > 0 ? std::clamp(ab / std::sqrt(aa * bb), 0.0, 1.0) : 0.0;
-            const auto [wa, wb] = aware_weights(corresponding(corr), aa, bb, ab, t, ha, hb);
-            for (int c = 0; c < out.channels(); ++c) {
-                out.planes[c][i] += wa * ra[c][i] + wb * rb[c][i];
-            }
-        }
+        parallel_for(
+            static_cast<int64_t>(n),
+            [&, ha = ha, hb = hb](int64_t begin, int64_t end) {
+                for (int64_t i = begin; i < end; ++i) {
+                    const double aa = local[0].ptr<float>()[i], bb = local[1].ptr<float>()[i],
+                                 ab = local[2].ptr<float>()[i];
+                    const double corr =
+                        aa > 0 && bb > 0 ? std::clamp(ab / std::sqrt(aa * bb), 0.0, 1.0) : 0.0;
+                    const auto [wa, wb] = aware_weights(corresponding(corr), aa, bb, ab, t, ha, hb);
+                    for (int c = 0; c < out.channels(); ++c) {
+                        out.planes[c][i] += wa * ra[c][i] + wb * rb[c][i];
+                    }
+                }
+            },
+            8192);
         return;
     }
     for (int c = 0; c < out.channels(); ++c) {
@@ -339,7 +345,13 @@ Image Morph::render_at(Planes w, double t, bool preview, int side) const {
     if (preview) {
         for (auto& plane : w) plane.resize(n);  // nested numbering: T_J' is a prefix
     }
-    inverse_transform(h, spans(w));
+    // The planes are independent: one inverse per core.
+    parallel_for(static_cast<int64_t>(w.size()), [&](int64_t begin, int64_t end) {
+        for (int64_t c = begin; c < end; ++c) {
+            const std::span<float> one[] = {w[c]};
+            inverse_transform(h, one);
+        }
+    });
     const RenderPlan plan = plan_render(h, v, width_, height_, width_, height_);
     std::vector<std::span<const float>> in(w.begin(), w.end());
     Image out = render(plan, in, SampleFormat::u8);

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "core/math/error.h"
+#include "core/math/parallel.h"
 #include "core/math/parametrization.h"
 #include "core/math/strings.h"
 
@@ -51,7 +52,7 @@ RenderPlan plan_render(const Hierarchy& h, std::span<const Vec2> mesh_vertices, 
     const LevelTopology& t = h.levels[level];
     const int32_t m = t.patch_cells, side = m + 1;
     const double sx = width / W, sy = height / H;
-    const std::vector<Quad> quads = t1_quads(h, mesh_vertices);
+    std::vector<Quad> quads = t1_quads(h, mesh_vertices);
     RenderPlan plan;
     plan.width = width;
     plan.height = height;
@@ -60,16 +61,18 @@ RenderPlan plan_render(const Hierarchy& h, std::span<const Vec2> mesh_vertices, 
     plan.cells = m;
     plan.grid.assign(t.patch_grid.begin(), t.patch_grid.end());
     const size_t pixels = static_cast<size_t>(width) * height;
-    plan.cell.reserve(pixels);
-    plan.st.reserve(pixels);
     plan.writes.assign(pixels, 0);
+    // First the runs of every quad (cheap, in order), then each quad's pixels at their known
+    // place in the plan (the inverse bilinear maps: the cost), quads shared among the cores.
     plan.quad_runs.push_back(0);
-    for (Quad q : quads) {
+    std::vector<size_t> first_entry = {0};
+    for (Quad& q : quads) {
         for (Vec2& c : q) c = {c.x * sx, c.y * sy};
         double y0 = q[0].y, y1 = q[0].y;
         for (const Vec2& c : q) y0 = std::min(y0, c.y), y1 = std::max(y1, c.y);
         const int k0 = std::max(0, static_cast<int>(std::ceil(y0 - 0.5)));
         const int k1 = std::min(height, static_cast<int>(std::ceil(y1 - 0.5)));
+        size_t entries = first_entry.back();
         for (int k = k0; k < k1; ++k) {
             int first, last;
             if (!row_span(q, k + 0.5, first, last)) continue;
@@ -78,22 +81,39 @@ RenderPlan plan_render(const Hierarchy& h, std::span<const Vec2> mesh_vertices, 
             if (last <= first) continue;
             plan.run_start.push_back(k * width + first);
             plan.run_length.push_back(last - first);
-            for (int i = first; i < last; ++i) {
-                const UV uv = inverse_bilinear(q, {i + 0.5, k + 0.5});
-                const double s = uv.u * m, r = uv.v * m;
-                const int32_t c0 = std::min(static_cast<int32_t>(s), m - 1);
-                const int32_t r0 = std::min(static_cast<int32_t>(r), m - 1);
-                const int32_t px = k * width + i;
-                plan.cell.push_back(r0 * side + c0);
-                auto fixed = [](double f) {
-                    return static_cast<uint16_t>(std::min(65535.0, std::round(f * 65536.0)));
-                };
-                plan.st.push_back({fixed(s - c0), fixed(r - r0)});
-                ++plan.writes[px];
-            }
+            for (int i = first; i < last; ++i) ++plan.writes[k * width + i];
+            entries += last - first;
         }
         plan.quad_runs.push_back(static_cast<int32_t>(plan.run_start.size()));
+        first_entry.push_back(entries);
     }
+    plan.cell.resize(first_entry.back());
+    plan.st.resize(first_entry.back());
+    parallel_for(
+        static_cast<int64_t>(quads.size()),
+        [&](int64_t begin, int64_t end) {
+            for (int64_t qi = begin; qi < end; ++qi) {
+                const Quad& q = quads[qi];
+                size_t e = first_entry[qi];
+                for (int32_t run = plan.quad_runs[qi]; run < plan.quad_runs[qi + 1]; ++run) {
+                    const int32_t k = plan.run_start[run] / width;
+                    const int32_t first = plan.run_start[run] % width;
+                    for (int32_t i = first; i < first + plan.run_length[run]; ++i, ++e) {
+                        const UV uv = inverse_bilinear(q, {i + 0.5, k + 0.5});
+                        const double s = uv.u * m, r = uv.v * m;
+                        const int32_t c0 = std::min(static_cast<int32_t>(s), m - 1);
+                        const int32_t r0 = std::min(static_cast<int32_t>(r), m - 1);
+                        auto fixed = [](double f) {
+                            return static_cast<uint16_t>(
+                                std::min(65535.0, std::round(f * 65536.0)));
+                        };
+                        plan.cell[e] = r0 * side + c0;
+                        plan.st[e] = {fixed(s - c0), fixed(r - r0)};
+                    }
+                }
+            }
+        },
+        16);
     return plan;
 }
 
@@ -120,33 +140,47 @@ void render_into(const RenderPlan& plan, std::span<const std::span<const float>>
     }
     const int32_t side = plan.cells + 1, grid_size = side * side;
     const size_t channels = planes.size(), quads = plan.quad_runs.size() - 1;
-    // One quad at a time: its grid values of every channel staged side by side, then its pixel
-    // runs read their plan entries once and interpolate all channels from the staged grids.
-    std::vector<float> local(grid_size * channels);
     std::vector<float*> outs(channels);
     for (size_t c = 0; c < channels; ++c) outs[c] = out.planes[c].data();
-    constexpr float kUnit = 1.0f / 65536.0f;
-    size_t i = 0;  // plan entry of the next pixel
+    // Where each quad's plan entries start.
+    std::vector<size_t> first_entry(quads + 1, 0);
     for (size_t q = 0; q < quads; ++q) {
-        const int32_t* ids = &plan.grid[q * grid_size];
-        for (size_t c = 0; c < channels; ++c) {
-            const float* __restrict x = planes[c].data();
-            float* __restrict g = local.data() + c * grid_size;
-            for (int32_t k = 0; k < grid_size; ++k) g[k] = x[ids[k]];
-        }
+        first_entry[q + 1] = first_entry[q];
         for (int32_t run = plan.quad_runs[q]; run < plan.quad_runs[q + 1]; ++run) {
-            const int32_t start = plan.run_start[run], length = plan.run_length[run];
-            for (int32_t n = 0; n < length; ++n, ++i) {
-                const float s = plan.st[i][0] * kUnit, r = plan.st[i][1] * kUnit;
-                const float* v = local.data() + plan.cell[i];
-                for (size_t c = 0; c < channels; ++c, v += grid_size) {
-                    const float top = v[0] + (v[1] - v[0]) * s;
-                    const float bottom = v[side] + (v[side + 1] - v[side]) * s;
-                    outs[c][start + n] = top + (bottom - top) * r;
-                }
-            }
+            first_entry[q + 1] += plan.run_length[run];
         }
     }
+    constexpr float kUnit = 1.0f / 65536.0f;
+    // One quad at a time: its grid values of every channel staged side by side, then its pixel
+    // runs read their plan entries once and interpolate all channels from the staged grids.
+    // Quads own disjoint pixels, so the cores take a share of quads each.
+    parallel_for(
+        static_cast<int64_t>(quads),
+        [&](int64_t begin, int64_t end) {
+            std::vector<float> local(grid_size * channels);
+            for (int64_t q = begin; q < end; ++q) {
+                const int32_t* ids = &plan.grid[q * grid_size];
+                for (size_t c = 0; c < channels; ++c) {
+                    const float* __restrict x = planes[c].data();
+                    float* __restrict g = local.data() + c * grid_size;
+                    for (int32_t k = 0; k < grid_size; ++k) g[k] = x[ids[k]];
+                }
+                size_t i = first_entry[q];
+                for (int32_t run = plan.quad_runs[q]; run < plan.quad_runs[q + 1]; ++run) {
+                    const int32_t start = plan.run_start[run], length = plan.run_length[run];
+                    for (int32_t n = 0; n < length; ++n, ++i) {
+                        const float s = plan.st[i][0] * kUnit, r = plan.st[i][1] * kUnit;
+                        const float* v = local.data() + plan.cell[i];
+                        for (size_t c = 0; c < channels; ++c, v += grid_size) {
+                            const float top = v[0] + (v[1] - v[0]) * s;
+                            const float bottom = v[side] + (v[side + 1] - v[side]) * s;
+                            outs[c][start + n] = top + (bottom - top) * r;
+                        }
+                    }
+                }
+            }
+        },
+        16);
 }
 
 }  // namespace tesswave

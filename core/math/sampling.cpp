@@ -5,6 +5,7 @@
 
 #include "core/math/error.h"
 #include "core/math/mesh.h"
+#include "core/math/parallel.h"
 #include "core/math/parametrization.h"
 #include "core/math/strings.h"
 
@@ -56,10 +57,17 @@ inline float apply(const Tap& t, const float* plane) {
 std::vector<std::vector<float>> sample_bilinear(const Image& image,
                                                 std::span<const Vec2> positions) {
     std::vector<std::vector<float>> out(image.channels(), std::vector<float>(positions.size()));
-    for (size_t i = 0; i < positions.size(); ++i) {
-        const Tap t = tap(image.width, image.height, 1.0, positions[i]);  // level 0: size 1
-        for (int c = 0; c < image.channels(); ++c) out[c][i] = apply(t, image.planes[c].data());
-    }
+    parallel_for(
+        static_cast<int64_t>(positions.size()),
+        [&](int64_t begin, int64_t end) {
+            for (int64_t i = begin; i < end; ++i) {
+                const Tap t = tap(image.width, image.height, 1.0, positions[i]);  // level 0
+                for (int c = 0; c < image.channels(); ++c) {
+                    out[c][i] = apply(t, image.planes[c].data());
+                }
+            }
+        },
+        4096);
     return out;
 }
 

@@ -39,6 +39,7 @@
 #include "core/math/error.h"
 #include "core/math/grid_mesh.h"
 #include "core/math/metrics.h"
+#include "core/math/parallel.h"
 #include "morph/auto_match.h"
 #include "morph/inbetween.h"
 #include "morph/morph.h"
@@ -219,9 +220,11 @@ void frames_counter(benchmark::State& state) {
         benchmark::Counter(static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
 }
 
+// state.range(0): threads (parallel.h); 1 is the single-core figure.
 void BM_Morph_frame(benchmark::State& state, ScheduleKind kind, bool preview) {
     const FrameSetup& s = frame_setup();
     const Morph& morph = prepared_morph(kind);
+    set_thread_count(static_cast<int>(state.range(0)));
     for (auto _ : state) {
         Image frame = morph.frame(kT, {.preview = preview});
         benchmark::DoNotOptimize(frame.planes[0].data());
@@ -232,6 +235,7 @@ void BM_Morph_frame(benchmark::State& state, ScheduleKind kind, bool preview) {
         benchmark::Counter(s.classic_seconds, benchmark::Counter::kIsIterationInvariantRate |
                                                   benchmark::Counter::kInvert);
     state.counters["PSNR"] = psnr(s.truth, morph.frame(kT, {.preview = preview})).all;
+    set_thread_count(0);
     state.counters["levels"] = morph.levels();
     state.counters["samples_per_pixel"] =
         static_cast<double>(morph.samples()) / (double{kWidth} * kHeight);
@@ -331,12 +335,29 @@ BENCHMARK(BM_Morph_classic)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_Morph_classic_maps)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_Morph_classic_with_maps)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_Morph_frame, linear, ScheduleKind::linear, false)
+    ->Arg(1)
+    ->Arg(2)
+    ->UseRealTime()
     ->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(BM_Morph_frame, sharp, ScheduleKind::sharp, false)->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(BM_Morph_frame, aware, ScheduleKind::aware, false)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_Morph_frame, sharp, ScheduleKind::sharp, false)
+    ->Arg(1)
+    ->Arg(2)
+    ->UseRealTime()
+    ->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_Morph_frame, aware, ScheduleKind::aware, false)
+    ->Arg(1)
+    ->Arg(2)
+    ->UseRealTime()
+    ->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_Morph_frame, linear_preview, ScheduleKind::linear, true)
+    ->Arg(1)
+    ->Arg(2)
+    ->UseRealTime()
     ->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_Morph_frame, sharp_preview, ScheduleKind::sharp, true)
+    ->Arg(1)
+    ->Arg(2)
+    ->UseRealTime()
     ->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_Morph_auto_match)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_Morph_auto_fit)->Unit(benchmark::kMillisecond);

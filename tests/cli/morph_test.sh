@@ -71,6 +71,18 @@ else
 fi
 refuse "morph --crf 60" "$dir/bad.mp4" "$tesswave" morph "$s/pair_a.png" "$s/pair_b.png" \
     --crf 60 -o "$dir/bad.mp4"
+# --threads: the same frames on one core and on three.
+for t in 1 3; do
+    check "morph --threads $t" "$tesswave" --threads $t morph "$s/pair_a.png" "$s/pair_b.png" \
+        --points-a "$s/pair_a.txt" --points-b "$s/pair_b.txt" --frames 3 -o "$dir/threads$t"
+done
+if cmp -s "$dir/threads1/frame_00001.png" "$dir/threads3/frame_00001.png"; then
+    pass "--threads 1 and 3 give the same frames"
+else
+    fail "--threads changes the frames"
+fi
+refuse "--threads -1" "$dir/bad.png" "$tesswave" morph "$s/pair_a.png" "$s/pair_b.png" \
+    --threads -1 --at 0.5 -o "$dir/bad.png"
 # compare-morph: a sheet and, for scripts, the measures of the five methods.
 check "compare-morph" "$tesswave" compare-morph "$s/pair_a.png" "$s/pair_b.png" \
     --points-a "$s/pair_a.txt" --points-b "$s/pair_b.txt" -o "$dir/sheet.png" --json
