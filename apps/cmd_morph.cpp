@@ -89,8 +89,21 @@ bool face_points(const MorphArgs& a, const Image& ia, const Image& ib, morph::Co
             warn(str("note: ", *name, ": ", (*face)->found, " faces; using the largest"));
         }
     }
-    c = {fa->points, fb->points};
-    report["faces"] = {{"a", fa->found}, {"b", fb->found}, {"landmarks", fa->points.size()}};
+    // Landmarks outside either image (a face cut by the edge) are left out in both.
+    c = {};
+    auto inside = [](Vec2 p, const Image& im) {
+        return p.x >= 0 && p.x <= im.width && p.y >= 0 && p.y <= im.height;
+    };
+    for (size_t i = 0; i < fa->points.size(); ++i) {
+        if (!inside(fa->points[i], ia) || !inside(fb->points[i], ib)) continue;
+        c.a.push_back(fa->points[i]);
+        c.b.push_back(fb->points[i]);
+    }
+    if (c.a.size() < fa->points.size()) {
+        warn(str("note: ", fa->points.size() - c.a.size(), " of ", fa->points.size(),
+                 " face landmarks lie outside an image (a face cut by its edge); left out"));
+    }
+    report["faces"] = {{"a", fa->found}, {"b", fb->found}, {"landmarks", c.a.size()}};
     return true;
 }
 

@@ -26,17 +26,14 @@ std::string model_path() {
 
 // Points above the brows, along the face's up direction (chin to the middle of the brows): the
 // forehead is about half as tall as chin-to-brows, less at the temples.
-std::vector<Vec2> forehead(const std::vector<Vec2>& landmarks, int width, int height) {
+std::vector<Vec2> forehead(const std::vector<Vec2>& landmarks) {
     const Vec2 brows = 0.5 * (landmarks[21] + landmarks[22]);
     const Vec2 up = brows - landmarks[8];
     std::vector<Vec2> out;
     const int brow[kForeheadPoints] = {17, 19, 21, 24, 26};
     const double rise[kForeheadPoints] = {0.25, 0.4, 0.45, 0.4, 0.25};
     for (int k = 0; k < kForeheadPoints; ++k) {
-        Vec2 p = k == 2 ? brows + rise[k] * up : landmarks[brow[k]] + rise[k] * up;
-        p.x = std::clamp(p.x, 0.5, width - 0.5);
-        p.y = std::clamp(p.y, 0.5, height - 0.5);
-        out.push_back(p);
+        out.push_back(k == 2 ? brows + rise[k] * up : landmarks[brow[k]] + rise[k] * up);
     }
     return out;
 }
@@ -132,16 +129,14 @@ std::optional<Face> find_face(const Image& image) {
     face.width = box.width();
     face.height = box.height();
     for (unsigned k = 0; k < shape.num_parts(); ++k) {
-        // dlib gives pixel indices; our points are at pixel centres. Landmarks of a face cut by
-        // the image's edge are kept inside it.
-        face.points.push_back({std::clamp(shape.part(k).x() + 0.5, 0.5, image.width - 0.5),
-                               std::clamp(shape.part(k).y() + 0.5, 0.5, image.height - 0.5)});
+        // dlib gives pixel indices; our points are at pixel centres.
+        face.points.push_back({shape.part(k).x() + 0.5, shape.part(k).y() + 0.5});
     }
     if (face.points.size() != kFaceLandmarks) {
         throw Error(
             str(model_path(), ": the model gives ", face.points.size(), " landmarks, not 68"));
     }
-    const std::vector<Vec2> top = forehead(face.points, image.width, image.height);
+    const std::vector<Vec2> top = forehead(face.points);
     face.points.insert(face.points.end(), top.begin(), top.end());
     return face;
 }

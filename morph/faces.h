@@ -24,7 +24,8 @@ std::string faces_missing();
 
 struct Face {
     // The 68 landmarks then kForeheadPoints points above the brows, in the image's pixels
-    // (pixel-centre convention of DESIGN.md 2.1), all inside the image.
+    // (pixel-centre convention of DESIGN.md 2.1). Those of a face cut by the image's edge lie
+    // outside it, where the predictor puts them.
     std::vector<Vec2> points;
     int found = 0;  // frontal faces detected; points are of the largest
     double left = 0, top = 0, width = 0, height = 0;  // its detection box
