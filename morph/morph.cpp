@@ -345,13 +345,7 @@ Image Morph::render_at(Planes w, double t, bool preview, int side) const {
     if (preview) {
         for (auto& plane : w) plane.resize(n);  // nested numbering: T_J' is a prefix
     }
-    // The planes are independent: one inverse per core.
-    parallel_for(static_cast<int64_t>(w.size()), [&](int64_t begin, int64_t end) {
-        for (int64_t c = begin; c < end; ++c) {
-            const std::span<float> one[] = {w[c]};
-            inverse_transform(h, one);
-        }
-    });
+    inverse_transform(h, spans(w));  // patches shared among the cores
     const RenderPlan plan = plan_render(h, v, width_, height_, width_, height_);
     std::vector<std::span<const float>> in(w.begin(), w.end());
     Image out = render(plan, in, SampleFormat::u8);

@@ -1,8 +1,11 @@
 #include "core/math/lifting.h"
 
+#include <algorithm>
+
 #include "core/math/error.h"
 #include "core/math/lifting_patch.h"
 #include "core/math/lifting_rules.h"
+#include "core/math/parallel.h"
 #include "core/math/patch_grid.h"
 #include "core/math/strings.h"
 
@@ -88,25 +91,37 @@ void fast_step(const LevelTopology& t, const PatchSides& ps, typename Rule::T* x
         }
         return;
     }
-    PatchStep<Rule> patch(t, ps, x);
     const int32_t P = static_cast<int32_t>(ps.sides.size());
     const int32_t skeleton_edges = ps.num_t1_edges * t.patch_cells;
+    // Patches touch only their own interiors: the cores take a share each, with a PatchStep (its
+    // row buffers) apiece. A patch's work grows with m^2; pieces of at least 4096 points.
+    const int64_t min_patches =
+        std::max<int64_t>(1, 4096 / (int64_t{t.patch_cells} * t.patch_cells));
+    auto patches = [&](auto&& one) {
+        parallel_for(
+            P,
+            [&](int64_t begin, int64_t end) {
+                PatchStep<Rule> patch(t, ps, x);
+                for (int64_t p = begin; p < end; ++p) one(patch, static_cast<int32_t>(p));
+            },
+            min_patches);
+    };
     if (forward) {
-        for (int32_t p = 0; p < P; ++p) {
+        patches([](PatchStep<Rule>& patch, int32_t p) {
             patch.template faces<1>(p);
             patch.template edges<1>(p);
             patch.template vertices<1>(p);
-        }
+        });
         table.edges(skeleton_edges);
         table.vertices();
     } else {
         table.vertices();
         table.edges(skeleton_edges);
-        for (int32_t p = 0; p < P; ++p) {
+        patches([](PatchStep<Rule>& patch, int32_t p) {
             patch.template vertices<-1>(p);
             patch.template edges<-1>(p);
             patch.template faces<-1>(p);
-        }
+        });
     }
 }
 
