@@ -7,10 +7,15 @@
 
 #include "core/math/grid_mesh.h"
 #include "core/math/lifting.h"
+#include "core/math/parallel.h"
 #include "core/math/voronoi.h"
 
 namespace tesswave {
 namespace {
+
+// Every figure here is single-threaded, as its peers are, unless a benchmark sets threads itself
+// (BM_Morph_frame's second row) and puts it back.
+const bool kOneThread = (set_thread_count(1), true);
 
 constexpr int kLevels = 6;  // each T0 face corner spans a 32x32 patch of T_6 quads
 

@@ -235,7 +235,7 @@ void BM_Morph_frame(benchmark::State& state, ScheduleKind kind, bool preview) {
         benchmark::Counter(s.classic_seconds, benchmark::Counter::kIsIterationInvariantRate |
                                                   benchmark::Counter::kInvert);
     state.counters["PSNR"] = psnr(s.truth, morph.frame(kT, {.preview = preview})).all;
-    set_thread_count(0);
+    set_thread_count(1);  // the binary's single-thread default (lifting_bench.cpp)
     state.counters["levels"] = morph.levels();
     state.counters["samples_per_pixel"] =
         static_cast<double>(morph.samples()) / (double{kWidth} * kHeight);
