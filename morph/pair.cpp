@@ -286,6 +286,11 @@ PairMeshes triangulated_pair(const Correspondences& c, double wa, double ha, dou
                 folded.push_back(index[pick]);
             }
         }
+        if (std::find(gone.begin(), gone.end(), 1) == gone.end()) {
+            // Only the mesh's own corners and border points are left in the folded triangles.
+            throw Error(str("the triangulation of the points folds (face ", bad.front(),
+                            ") where no point can be left out"));
+        }
     }
 }
 
