@@ -60,13 +60,17 @@ sanitize)
     export ASAN_OPTIONS="fast_unwind_on_malloc=0"
     ctest --test-dir build-asan --output-on-failure --no-tests=error -j "$(nproc)"
     ;;
-fuzz)  # ./run.sh fuzz [seconds per target]: libFuzzer runs from the sample meshes
+fuzz)  # ./run.sh fuzz [seconds per target]: the input tests under the sanitizers, then libFuzzer
     DEBIAN_FRONTEND=noninteractive $([[ $(id -u) -eq 0 ]] || echo sudo) apt-get install -y -qq clang >/dev/null
-    # Only the four targets are built with clang and the sanitizers; the seeds are written by the
-    # release binary that test and demo build (a no-op when ./run.sh test ran first).
+    # Built with clang and ASan/UBSan: the four fuzz targets and the tests of everything that reads
+    # input (tesswave_input_tests: meshes, points, images, clips, .twi and .twv, and the indexing
+    # underneath; the whole suite under the sanitizers is ./run.sh sanitize, too long for CI). The
+    # seeds are written by the release binary that test and demo build (a no-op after ./run.sh test).
     fuzzers=(mesh_fuzz points_fuzz twi_fuzz twv_fuzz)
     CXX=clang++ build build-fuzz -DTESSWAVE_BUILD_FUZZERS=ON -DTESSWAVE_BUILD_TESTS=OFF \
-        -- --target "${fuzzers[@]}"
+        -- --target "${fuzzers[@]}" tesswave_input_tests
+    LSAN_OPTIONS="suppressions=$PWD/tests/lsan.supp" ASAN_OPTIONS="fast_unwind_on_malloc=0" \
+        ctest --test-dir build-fuzz --output-on-failure --no-tests=error -j "$(nproc)"
     build build "${main_build[@]}" -- --target tesswave
     tesswave=./build/apps/tesswave
     mkdir -p build-fuzz/corpus

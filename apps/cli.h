@@ -3,6 +3,7 @@
 
 #include <CLI/CLI.hpp>
 #include <chrono>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -85,7 +86,9 @@ Mesh mesh_for(const std::string& spec, const std::string& image_path, const Imag
 inline CLI::Range density_range() { return CLI::Range(0.01, 16.0); }
 
 // --max-pixels N on every decoder: accept images (and mesh samples) up to N whatever the file's
-// size; 0 keeps the default limits, which weigh a header's sizes against the file's bytes.
+// size (and, for clips, any number of frames and groups up to TwvLimits::max_group_bytes); 0 keeps
+// the default limits, which weigh a header's sizes and a clip's decoding work against the file's
+// bytes.
 inline CLI::Option* add_max_pixels_option(CLI::App* cmd, int64_t& value) {
     return cmd
         ->add_option("--max-pixels", value,
@@ -102,6 +105,10 @@ Limits limits_for(int64_t max_pixels) {
         l.max_pixels = max_pixels;
         l.free_pixels = max_pixels;
         if constexpr (requires { l.free_samples; }) l.free_samples = max_pixels;
+        if constexpr (requires { l.free_work_pixels; }) {  // nor the work and a group's memory
+            l.free_work_pixels = std::numeric_limits<int64_t>::max();
+            l.free_group_bytes = l.max_group_bytes;
+        }
     }
     return l;
 }

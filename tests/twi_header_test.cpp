@@ -114,7 +114,7 @@ TEST(TwiRobustness, headers_claiming_absurd_meshes_are_refused) {
                    no_pixel_limit);
     expect_refused(header_file(mesh_header(64, 48, 65, 4, 1)), "grid columns");
     expect_refused(header_file(mesh_header(64, 48, 4, 49, 1)), "grid rows");
-    expect_refused(header_file(mesh_header(1000, 1000, 100, 100, 12)), "samples");
+    expect_refused(header_file(mesh_header(1000, 1000, 100, 100, 12)), "samples", no_pixel_limit);
     expect_refused(header_file(mesh_header(64, 48, 4, 3, 7)), "samples", small);
 
     TwiHeader aligned = mesh_header(8193, 6145, 2, 2, 12);  // 67M samples
@@ -334,10 +334,12 @@ TEST(TwiRobustness, lossless_coefficients_near_2_to_31_do_not_overflow_the_integ
     };
     TwiHeader aligned = mesh_header(5, 5, 1, 1, 2);
     aligned.placement = MeshPlacement::centres;
-    for (const auto& [name, file] :
+    for (const auto& [name, bytes] :
          {std::pair{"grid 5/3, 2x2, 1 level", lossless(grid_header(TwiTransform::grid53, 2, 2, 1))},
           std::pair{"grid mesh, 16x16, 1 cell, J = 2", lossless(mesh_header(16, 16, 1, 1, 2))},
           std::pair{"aligned mesh, 5x5, 1 cell, J = 2", lossless(aligned)}}) {
+        // A named copy: clang 14 cannot capture a structured binding.
+        const Bytes& file = bytes;
         SCOPED_TRACE(str(name, ", ", file.size(), " bytes"));
         expect_error_or_return_in_child([&] { decompress_image(file, "t.twi"); });
     }
@@ -355,11 +357,13 @@ TEST(TwiRobustness, a_tiny_header_cannot_make_the_decoder_allocate_gigabytes) {
 #endif
     TwiHeader aligned = mesh_header(2, 2, 1, 1, 12);
     aligned.placement = MeshPlacement::centres;
-    for (const auto& [name, file] :
+    for (const auto& [name, bytes] :
          {std::pair{"grid 5/3, 16384x16384",
                     header_file(grid_header(TwiTransform::grid53, 1 << 14, 1 << 14, 5))},
           std::pair{"aligned mesh, 2x2, J = 12", header_file(aligned)},
           std::pair{"grid mesh 2x1, J = 12", header_file(mesh_header(2, 1, 2, 1, 12))}}) {
+        // A named copy: clang 14 cannot capture a structured binding.
+        const Bytes& file = bytes;
         SCOPED_TRACE(str(name, ", ", file.size(), " bytes"));
         expect_error_or_return_in_child([&] {
             cap_address_space(size_t{1} << 30);

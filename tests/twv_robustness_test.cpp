@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 
 #include "core/codec/byte_io.h"
 #include "core/math/error.h"
@@ -303,6 +304,74 @@ TEST(TwvRobustness, ASmallFileClaimsNoMoreThanItsBytesJustify) {
     Image frame;
     EXPECT_THROW(trusting.read(frame), Error);  // a skimming decoder does not decode
     fs::remove(path);
+}
+
+// A file of `header` and the given chunks (valid CRCs), without an index.
+std::string crafted_clip(const TwvHeader& header, const std::vector<Bytes>& chunks) {
+    Bytes file = write_twv_header(header);
+    for (const Bytes& c : chunks) file.insert(file.end(), c.begin(), c.end());
+    const std::string path = temp_path("work.twv");
+    write_bytes(path, file);
+    return path;
+}
+
+// The reliability issue's decode-work probe: 1024x1024 frames are within what any file may claim,
+// but a few bytes make a frame, so a small file of many empty frames made the decoder work for
+// minutes. The frames decoded are now weighed against the file's bytes (work counted, not time).
+TEST(TwvRobustness, DecodingWorkIsBoundedByTheFileSize) {
+    const TwvHeader header{.width = 1024, .height = 1024};
+    const TwvGroup g = grid_group(header, 5);
+    TwvFrame frame = empty_intra(g);
+    std::vector<Bytes> chunks{group_chunk(g)};
+    for (int t = 0; t < 1000; ++t) {
+        frame.number = t;
+        frame.kind = t == 0 ? TwvFrameKind::intra : TwvFrameKind::delta;
+        chunks.push_back(twv_chunk('F', write_twv_frame(frame, g)));
+    }
+    const std::string path = crafted_clip(header, chunks);
+    const int64_t size = static_cast<int64_t>(fs::file_size(path));
+    EXPECT_LT(size, 20'000);
+    const int64_t allowed = twv_work_allowed(size) / (int64_t{header.width} * header.height);
+    ASSERT_LT(allowed, 100);
+    VideoDecoder decoder(path);
+    Image skipped;
+    int64_t frames = 0;
+    while (decoder.read(skipped, false)) ++frames;
+    EXPECT_EQ(frames, allowed);
+    EXPECT_NE(decoder.damage().find("frame pixels that a"), std::string::npos) << decoder.damage();
+    // Limits that trust the file (--max-pixels) decode on.
+    VideoDecoder trusting(path, {.free_work_pixels = std::numeric_limits<int64_t>::max()});
+    EXPECT_TRUE(trusting.seek(allowed + 10));
+    fs::remove(path);
+}
+
+// A lifted group is held whole: its coefficients are weighed against the file's bytes too.
+TEST(TwvRobustness, ALiftedGroupsMemoryIsBoundedByTheFileSize) {
+    for (const int side : {512, 700}) {
+        const TwvHeader header{.width = side, .height = side};
+        TwvGroup g = grid_group(header, 5);
+        g.lifted = 16;
+        TwvFrame band = empty_intra(g);
+        std::vector<Bytes> chunks{group_chunk(g)};
+        for (int t = 0; t < g.lifted; ++t) {
+            band.number = t;
+            band.kind = TwvFrameKind::band;
+            chunks.push_back(twv_chunk('F', write_twv_frame(band, g)));
+        }
+        const std::string path = crafted_clip(header, chunks);
+        const int64_t size = static_cast<int64_t>(fs::file_size(path));
+        const int64_t needs = g.lifted * twv_frame_coefficient_bytes(g, header);
+        const bool fits = needs <= twv_group_bytes_allowed(size);
+        EXPECT_EQ(fits, side == 512) << needs << " bytes for a " << size << "-byte file";
+        VideoDecoder decoder(path);
+        Image skipped;
+        int64_t frames = 0;
+        while (decoder.read(skipped, false)) ++frames;
+        EXPECT_EQ(frames, fits ? g.lifted : 0) << side << ": " << decoder.damage();
+        EXPECT_EQ(decoder.damage().find("bytes of coefficients") != std::string::npos, !fits)
+            << decoder.damage();
+        fs::remove(path);
+    }
 }
 
 TEST(TwvRobustness, SkimmingSeesTheFramesThatDecodingSees) {

@@ -165,8 +165,21 @@ std::vector<Vec2> VideoDecoder::frame_vertices(const TwvFrame& f, const std::str
                          domain_->shape().mesh, what, header_.version >= 2);
 }
 
+// Counts `frames` frames of decoding against what the file's size allows (TwvLimits); throws
+// Error before the work when it would go past it.
+void VideoDecoder::charge(int64_t frames, const std::string& what) {
+    const int64_t pixels = int64_t{header_.width} * header_.height * frames;
+    const int64_t allowed = twv_work_allowed(static_cast<int64_t>(file_size_), limits_);
+    if (pixels > allowed - work_) {
+        throw Error(str(what, ": decoding would pass the ", allowed, " frame pixels that a ",
+                        file_size_, "-byte file may cost (--max-pixels raises the limit)"));
+    }
+    work_ += pixels;
+}
+
 void VideoDecoder::decode_frame(const Chunk& chunk, Image* out) {
     const std::string what = str(path_, ": frame ", next_frame_);
+    charge(1, what);
     TwvFrame f = frame_of(chunk, what);
     std::vector<Vec2> vertices = frame_vertices(f, what);
     if (next_frame_ == group_.first_frame) coefficients_ = domain_->zeros();
@@ -184,6 +197,16 @@ void VideoDecoder::decode_frame(const Chunk& chunk, Image* out) {
 // Reads the chunks of the lifted group that starts at position_ (without moving position_), as
 // many as arrive intact, and inverts the temporal transform.
 void VideoDecoder::load_lifted_group() {
+    const std::string group_what = str(path_, ": group at frame ", next_frame_);
+    const int64_t group_bytes = group_.lifted * twv_frame_coefficient_bytes(group_, header_);
+    const int64_t group_allowed =
+        twv_group_bytes_allowed(static_cast<int64_t>(file_size_), limits_);
+    if (group_bytes > group_allowed) {
+        throw Error(str(group_what, ": its ", group_.lifted, " frames take ", group_bytes,
+                        " bytes of coefficients, more than the ", group_allowed, " a ", file_size_,
+                        "-byte file may claim (--max-pixels raises the limit)"));
+    }
+    charge(group_.lifted, group_what);
     Lifted g;
     std::vector<TwvFrame> bands;
     const int64_t saved_next = next_frame_;
@@ -318,6 +341,7 @@ bool VideoDecoder::seek(int64_t frame) {
             in_group_ = false;
             lifted_.reset();
             damage_.clear();
+            work_ = 0;
         }
     } else if (next_frame_ > frame) {
         position_ = header_bytes_;
@@ -325,6 +349,7 @@ bool VideoDecoder::seek(int64_t frame) {
         in_group_ = false;
         lifted_.reset();
         damage_.clear();
+        work_ = 0;
     }
     Image skipped;
     while (next_frame_ < frame) {

@@ -3,9 +3,10 @@
 // a lifted group is read whole when it starts (its temporal bands and each frame's motion), then
 // inverted along time (temporal.h), and its frames are rendered one by one. Needs neither
 // tracking nor fitting. Memory holds one group's domain and one group's coefficients (within
-// TwvLimits::max_group_bytes), whatever the clip's length. A cut or damaged file decodes up to its
-// last whole, intact frame (in a lifted group, every frame whose chunk arrived, the missing bands
-// taken as zero); damage() then says where and why.
+// TwvLimits::max_group_bytes), whatever the clip's length; the frames decoded, and a lifted group's
+// coefficients, are weighed against the file's size (TwvLimits) before the work. A cut or damaged
+// file decodes up to its last whole, intact frame (in a lifted group, every frame whose chunk
+// arrived, the missing bands taken as zero); damage() then says where and why.
 #pragma once
 
 #include <cstdint>
@@ -81,7 +82,9 @@ class VideoDecoder {
     TwvFrame frame_of(const Chunk& chunk, const std::string& what) const;
     std::vector<Vec2> frame_vertices(const TwvFrame& f, const std::string& what) const;
     void load_lifted_group();
+    void charge(int64_t frames, const std::string& what);
     bool skimmed_ = false;
+    int64_t work_ = 0;  // frame pixels decoded since the start or the last seek
 
     // A lifted group, read whole: each frame's coefficients, vertices, description and chunk end.
     struct Lifted {

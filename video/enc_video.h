@@ -153,7 +153,8 @@ class VideoEncoder {
     TwvIndex index_;
     uint64_t written_ = 0;
     int64_t frames_ = 0, in_group_ = 0, group_length_ = 0;
-    int64_t coded_frames_ = 0;  // frames whose chunks are written
+    int64_t coded_frames_ = 0;         // frames whose chunks are written
+    int64_t largest_group_bytes_ = 0;  // a lifted group's coefficients, for finish()
     float base_step_ = 1.0f / 1024;
     // Lifted groups with a rate: the step the streams are coded at, refined by quarters until the
     // group's cut falls inside them.

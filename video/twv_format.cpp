@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "core/codec/byte_io.h"
 #include "core/math/error.h"
@@ -30,6 +31,26 @@ int64_t twv_bytes_needed(int64_t pixels, const TwvLimits& limits) {
     if (pixels <= limits.free_pixels) return 0;
     return (pixels - limits.free_pixels + limits.pixels_per_byte - 1) /
            std::max<int64_t>(limits.pixels_per_byte, 1);
+}
+
+namespace {
+
+// free + bytes * per_byte, saturating at the largest int64_t.
+int64_t weighed(int64_t free, int64_t per_byte, int64_t bytes) {
+    constexpr int64_t kMax = std::numeric_limits<int64_t>::max();
+    if (per_byte > 0 && bytes > (kMax - free) / per_byte) return kMax;
+    return free + bytes * per_byte;
+}
+
+}  // namespace
+
+int64_t twv_work_allowed(int64_t file_bytes, const TwvLimits& limits) {
+    return weighed(limits.free_work_pixels, limits.work_pixels_per_byte, file_bytes);
+}
+
+int64_t twv_group_bytes_allowed(int64_t file_bytes, const TwvLimits& limits) {
+    return std::min(limits.max_group_bytes,
+                    weighed(limits.free_group_bytes, limits.group_bytes_per_byte, file_bytes));
 }
 
 std::vector<uint8_t> write_twv_header(const TwvHeader& h) {

@@ -88,13 +88,26 @@ struct TwvLimits {
     int64_t max_frames = 100'000'000;
     // What a file may claim for its size (as TwiLimits): any file may have frames of free_pixels
     // pixels; larger frames need a byte of file for each pixels_per_byte pixels of a frame.
-    int64_t free_pixels = int64_t{1} << 21;
-    int64_t pixels_per_byte = 1024;
+    int64_t free_pixels = int64_t{1} << 19;
+    int64_t pixels_per_byte = 256;
     // A lifted group is held whole: its frames times the coefficients of a frame, 4 bytes each.
     // The encoder shortens groups to fit.
     int64_t max_group_bytes = int64_t{512} << 20;
     int max_lifted_frames = 256;
+    // What decoding a file may cost, weighed against its bytes as the frame size is: the frames
+    // decoded may total free_work_pixels pixels and work_pixels_per_byte more for each byte of the
+    // file; a lifted group's coefficients may take free_group_bytes, and group_bytes_per_byte more
+    // for each byte of the file (a 1 KB file: about 12 M pixels, 68 MiB).
+    int64_t free_work_pixels = int64_t{1} << 23;
+    int64_t work_pixels_per_byte = 4096;
+    int64_t free_group_bytes = int64_t{64} << 20;
+    int64_t group_bytes_per_byte = 4096;
 };
+
+// The frame pixels, and the bytes of one lifted group's coefficients, that decoding a file of
+// `file_bytes` bytes may cost within `limits` (saturating).
+int64_t twv_work_allowed(int64_t file_bytes, const TwvLimits& limits = {});
+int64_t twv_group_bytes_allowed(int64_t file_bytes, const TwvLimits& limits = {});
 
 // Why a group's mesh (or its lifted frames) is too large for the limits (empty: it is not): the
 // one check of the decoder and the encoder.

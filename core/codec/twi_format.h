@@ -60,14 +60,15 @@ struct TwiLimits {
     double max_samples_per_pixel = 20;
     int max_mesh_vertices = 1'000'000;
     // What a file may claim for its size, so that a tiny file cannot cost much memory or time to
-    // decode (decoding takes about 50 bytes a pixel and 200 a mesh sample): any file may claim
-    // free_pixels pixels and free_samples samples; more need a byte of file for each
-    // pixels_per_byte pixels or samples_per_byte samples. A 1 KB file may claim 3 M pixels and
-    // 0.8 M samples. The encoder refuses to write what this refuses to read.
-    int64_t free_pixels = int64_t{1} << 21;
-    int64_t pixels_per_byte = 1024;
-    int64_t free_samples = int64_t{1} << 19;
-    int64_t samples_per_byte = 256;
+    // decode (decoding takes about 110 bytes a pixel on the fixed grid, and 300 a mesh sample):
+    // any file may claim free_pixels pixels and free_samples samples; more need a byte of file
+    // for each pixels_per_byte pixels or samples_per_byte samples. A 1 KB file may claim 0.8 M
+    // pixels and 0.26 M samples (a 1920x1080 image needs 6 KB on the grid, 15 KB on a mesh of a
+    // sample a pixel). The encoder refuses to write what this refuses to read.
+    int64_t free_pixels = int64_t{1} << 19;
+    int64_t pixels_per_byte = 256;
+    int64_t free_samples = int64_t{1} << 17;
+    int64_t samples_per_byte = 128;
 };
 
 // The bytes a file needs so that `limits` let it claim `pixels` pixels and `samples` mesh samples
