@@ -9,6 +9,7 @@
 #include "core/math/grid_mesh.h"
 #include "core/math/lifting.h"
 #include "core/math/metrics.h"
+#include "core/math/parallel.h"
 #include "core/math/render.h"
 #include "core/math/sampling.h"
 #include "core/math/voronoi.h"
@@ -52,6 +53,24 @@ TEST(Project, a_grid_between_the_pixels_gains_over_point_sampling) {
     EXPECT_GT(fit.iterations, 0);
     EXPECT_LE(fit.iterations, ProjectOptions{}.max_iterations);
     EXPECT_TRUE(all_finite(fit.planes));
+}
+
+// The quads and channels are shared among the cores; the samples are the same to the bit on any
+// number of threads (sums are made in a fixed order).
+TEST(Project, samples_are_identical_whatever_the_thread_count) {
+    const Image image = samples::scene_image(160, 120);
+    const Mesh mesh = voronoi_mesh(160, 120, {.sites = 30, .seed = 4});
+    const Hierarchy h = build_hierarchy(mesh, {.levels = 3});
+    set_thread_count(1);
+    const Projection one = project_image(image, h, mesh.vertices, {.smoothness = 0.01});
+    for (int threads : {2, 3}) {
+        set_thread_count(threads);
+        const Projection many = project_image(image, h, mesh.vertices, {.smoothness = 0.01});
+        EXPECT_EQ(many.planes, one.planes) << threads << " threads";
+        EXPECT_EQ(many.iterations, one.iterations) << threads << " threads";
+    }
+    set_thread_count(0);
+    EXPECT_GT(one.iterations, 1);
 }
 
 // The same on a Voronoi mesh (J for about 2 samples a pixel): not a grid trick.

@@ -2,8 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <utility>
 
 #include "core/math/error.h"
+#include "core/math/parallel.h"
 #include "core/math/render.h"
 #include "core/math/sampling.h"
 #include "core/math/strings.h"
@@ -88,47 +90,145 @@ void add_smoothness(NormalMatrix& A, float weight) {
     }
 }
 
-// y_c = A x_c for the channels c in `active`: per quad, its grid of x gathered into a padded
-// buffer, the stencil applied row by row (entry-major, so the rows vectorize), the result added
-// back at the grid's sample ids.
-void multiply(const NormalMatrix& A, const Planes& x, Planes& y, const std::vector<int>& active) {
-    const int32_t side = A.side, P = side + 2,
-                  padded = P * P;  // a zero border: no read needs a test
-    std::vector<float> local(padded, 0.0f), out(side);
-    for (int c : active) {
-        for (size_t k = 0; k < x[c].size(); ++k) y[c][k] = static_cast<float>(A.alpha) * x[c][k];
-    }
-    const int32_t offset[9] = {-P - 1, -P, -P + 1, -1, 0, 1, P - 1, P, P + 1};
+// Which grid nodes of the quads are shared by several quads (the rest, a quad's own, are written
+// by that quad alone): per quad, the positions of its shared nodes.
+struct SharedNodes {
+    std::vector<uint8_t> shared;      // per quad and grid position
+    std::vector<int32_t> offsets, k;  // per quad, [offsets[q], offsets[q + 1]) of k
+};
+
+SharedNodes find_shared(const NormalMatrix& A, size_t samples) {
+    std::vector<uint8_t> count(samples, 0);
+    const size_t nodes = A.quads * A.grid_size;
+    for (size_t i = 0; i < nodes; ++i)
+        count[A.grid[i]] = static_cast<uint8_t>(std::min(count[A.grid[i]] + 1, 2));
+    SharedNodes s;
+    s.shared.resize(nodes);
+    s.offsets.push_back(0);
     for (size_t q = 0; q < A.quads; ++q) {
-        const int32_t* ids = A.grid + q * A.grid_size;
-        for (int ch : active) {
-            const float* __restrict xc = x[ch].data();
-            float* __restrict yc = y[ch].data();
-            for (int32_t r = 0; r < side; ++r) {
-                float* g = local.data() + (r + 1) * P + 1;
-                const int32_t* row_ids = ids + r * side;
-                for (int32_t c = 0; c < side; ++c) g[c] = xc[row_ids[c]];
-            }
-            for (int32_t r = 0; r < side; ++r) {
-                const float* g = local.data() + (r + 1) * P + 1;
-                float* __restrict o = out.data();
-                for (int32_t c = 0; c < side; ++c) o[c] = 0.0f;
-                for (int e = 0; e < 9; ++e) {
-                    const float* __restrict st = A.entry(q, e) + r * side;
-                    const float* __restrict ge = g + offset[e];
-                    for (int32_t c = 0; c < side; ++c) o[c] += st[c] * ge[c];
-                }
-                const int32_t* row_ids = ids + r * side;
-                for (int32_t c = 0; c < side; ++c) yc[row_ids[c]] += o[c];
-            }
+        for (int32_t k = 0; k < A.grid_size; ++k) {
+            const size_t i = q * A.grid_size + k;
+            s.shared[i] = count[A.grid[i]] > 1;
+            if (s.shared[i]) s.k.push_back(k);
         }
+        s.offsets.push_back(static_cast<int32_t>(s.k.size()));
     }
+    return s;
 }
 
+// y_c = A x_c for the channels c in `active`, the quads shared among the cores: per quad, its grid
+// of each channel's x gathered into a padded buffer, the stencil applied row by row (entry-major,
+// so the rows vectorize; each stencil row is read once for all channels). A node the quad owns
+// gets y = alpha u x + its product at once; a shared node's product waits in `products`, and is
+// added afterwards in quad order, so that every sum is made in the same order whatever the thread
+// count.
+void multiply(const NormalMatrix& A, const SharedNodes& s, const Planes& x, Planes& y,
+              const std::vector<int>& active, std::vector<float>& products) {
+    const int32_t side = A.side, P = side + 2,
+                  padded = P * P;  // a zero border: no read needs a test
+    const size_t n = active.size(), shared = s.k.size();
+    products.resize(n * shared);
+    const float alpha = static_cast<float>(A.alpha);
+    const int32_t offset[9] = {-P - 1, -P, -P + 1, -1, 0, 1, P - 1, P, P + 1};
+    parallel_for(static_cast<int64_t>(A.quads), [&](int64_t begin, int64_t end) {
+        std::vector<float> local(n * padded, 0.0f), out(n * side);
+        for (auto q = static_cast<size_t>(begin); q < static_cast<size_t>(end); ++q) {
+            const int32_t* ids = A.grid + q * A.grid_size;
+            const uint8_t* is_shared = s.shared.data() + q * A.grid_size;
+            for (size_t a = 0; a < n; ++a) {
+                const float* __restrict xc = x[active[a]].data();
+                for (int32_t r = 0; r < side; ++r) {
+                    float* g = local.data() + a * padded + (r + 1) * P + 1;
+                    const int32_t* row_ids = ids + r * side;
+                    for (int32_t c = 0; c < side; ++c) g[c] = xc[row_ids[c]];
+                }
+            }
+            int32_t next_shared = s.offsets[q];
+            for (int32_t r = 0; r < side; ++r) {
+                std::fill(out.begin(), out.end(), 0.0f);
+                for (int e = 0; e < 9; ++e) {
+                    const float* __restrict st = A.entry(q, e) + r * side;
+                    for (size_t a = 0; a < n; ++a) {
+                        const float* __restrict ge =
+                            local.data() + a * padded + (r + 1) * P + 1 + offset[e];
+                        float* __restrict o = out.data() + a * side;
+                        for (int32_t c = 0; c < side; ++c) o[c] += st[c] * ge[c];
+                    }
+                }
+                const int32_t* row_ids = ids + r * side;
+                const uint8_t* row_shared = is_shared + r * side;
+                for (size_t a = 0; a < n; ++a) {
+                    const float* __restrict xc = x[active[a]].data();
+                    float* __restrict yc = y[active[a]].data();
+                    const float* o = out.data() + a * side;
+                    float* stash = products.data() + a * shared;
+                    int32_t next = next_shared;
+                    for (int32_t c = 0; c < side; ++c) {
+                        if (row_shared[c]) {
+                            stash[next++] = o[c];
+                        } else {
+                            yc[row_ids[c]] = alpha * xc[row_ids[c]] + o[c];
+                        }
+                    }
+                    if (a + 1 == n) next_shared = next;
+                }
+            }
+        }
+    });
+    parallel_for(static_cast<int64_t>(n), [&](int64_t begin, int64_t end) {
+        for (auto a = static_cast<size_t>(begin); a < static_cast<size_t>(end); ++a) {
+            const float* __restrict xc = x[active[a]].data();
+            float* __restrict yc = y[active[a]].data();
+            for (size_t q = 0; q < A.quads; ++q) {
+                const int32_t* ids = A.grid + q * A.grid_size;
+                for (int32_t i = s.offsets[q]; i < s.offsets[q + 1]; ++i)
+                    yc[ids[s.k[i]]] = alpha * xc[ids[s.k[i]]];
+            }
+            const float* shared_products = products.data() + a * shared;
+            for (size_t q = 0; q < A.quads; ++q) {
+                const int32_t* ids = A.grid + q * A.grid_size;
+                for (int32_t i = s.offsets[q]; i < s.offsets[q + 1]; ++i)
+                    yc[ids[s.k[i]]] += shared_products[i];
+            }
+        }
+    });
+}
+
+// The reductions below keep four partial sums (k mod 4), so that a loop is not bound by the
+// latency of one double accumulator; the order, and so the result, is fixed.
 double dot(const std::vector<float>& a, const std::vector<float>& b) {
-    double sum = 0;
-    for (size_t k = 0; k < a.size(); ++k) sum += static_cast<double>(a[k]) * b[k];
-    return sum;
+    double sum[4] = {0, 0, 0, 0};
+    const size_t n = a.size(), whole = n - n % 4;
+    for (size_t k = 0; k < whole; k += 4) {
+        for (int i = 0; i < 4; ++i) sum[i] += static_cast<double>(a[k + i]) * b[k + i];
+    }
+    for (size_t k = whole; k < n; ++k) sum[k % 4] += static_cast<double>(a[k]) * b[k];
+    return (sum[0] + sum[1]) + (sum[2] + sum[3]);
+}
+
+// One conjugate-gradient step of a channel: x += step p, r -= step Ap; returns r.z (z = r / d)
+// and r.r.
+std::pair<double, double> step_channel(float step, float* __restrict x, float* __restrict r,
+                                       const float* __restrict p, const float* __restrict ap,
+                                       const float* __restrict inverse, size_t n) {
+    double rz[4] = {0, 0, 0, 0}, rr[4] = {0, 0, 0, 0};
+    for (size_t k = 0; k < n; ++k) {
+        x[k] += step * p[k];
+        r[k] -= step * ap[k];
+    }
+    const size_t whole = n - n % 4;
+    for (size_t k = 0; k < whole; k += 4) {
+        for (int i = 0; i < 4; ++i) {
+            const double v = r[k + i];
+            rz[i] += v * (r[k + i] * inverse[k + i]);
+            rr[i] += v * v;
+        }
+    }
+    for (size_t k = whole; k < n; ++k) {
+        rz[k % 4] += double{r[k]} * (r[k] * inverse[k]);
+        rr[k % 4] += double{r[k]} * r[k];
+    }
+    return {(rz[0] + rz[1]) + (rz[2] + rz[3]), (rr[0] + rr[1]) + (rr[2] + rr[3])};
 }
 
 void check_options(const ProjectOptions& o) {
@@ -210,7 +310,9 @@ Projection project_image(const Image& image, const Hierarchy& h,
     Planes r(channels, std::vector<float>(samples)), p = r, Ap = r;
     std::vector<int> all(channels);
     for (int c = 0; c < channels; ++c) all[c] = c;
-    multiply(A, x, Ap, all);
+    const SharedNodes shared = find_shared(A, samples);
+    std::vector<float> products;
+    multiply(A, shared, x, Ap, all, products);
     std::vector<double> rz(channels), norm_b(channels);
     std::vector<int> active;
     for (int c = 0; c < channels; ++c) {
@@ -228,30 +330,32 @@ Projection project_image(const Image& image, const Hierarchy& h,
     }
     while (!active.empty() && result.iterations < o.max_iterations) {
         ++result.iterations;
-        multiply(A, p, Ap, active);
+        multiply(A, shared, p, Ap, active, products);
+        // Each channel's step on its own (the channels shared among the cores).
+        const size_t n = active.size();
+        std::vector<double> relative(n, -1.0);
+        parallel_for(static_cast<int64_t>(n), [&](int64_t begin, int64_t end) {
+            for (auto a = static_cast<size_t>(begin); a < static_cast<size_t>(end); ++a) {
+                const int c = active[a];
+                const double pAp = dot(p[c], Ap[c]);
+                if (!(pAp > 0)) continue;  // converged to rounding
+                const float step = static_cast<float>(rz[c] / pAp);
+                float* __restrict rc = r[c].data();
+                float* __restrict pc = p[c].data();
+                const auto [rz_next, rr] =
+                    step_channel(step, x[c].data(), rc, pc, Ap[c].data(), inverse.data(), samples);
+                const float beta = static_cast<float>(rz_next / rz[c]);
+                rz[c] = rz_next;
+                for (size_t k = 0; k < samples; ++k) pc[k] = rc[k] * inverse[k] + beta * pc[k];
+                relative[a] = std::sqrt(rr) / norm_b[c];
+            }
+        });
         std::vector<int> still;
         result.residual = 0;
-        for (int c : active) {
-            const double pAp = dot(p[c], Ap[c]);
-            if (!(pAp > 0)) continue;  // converged to rounding
-            const float step = static_cast<float>(rz[c] / pAp);
-            float* __restrict xc = x[c].data();
-            float* __restrict rc = r[c].data();
-            float* __restrict pc = p[c].data();
-            const float* __restrict apc = Ap[c].data();
-            double rz_next = 0, rr = 0;
-            for (size_t k = 0; k < samples; ++k) {
-                xc[k] += step * pc[k];
-                rc[k] -= step * apc[k];
-                rz_next += double{rc[k]} * (rc[k] * inverse[k]);
-                rr += double{rc[k]} * rc[k];
-            }
-            const float beta = static_cast<float>(rz_next / rz[c]);
-            rz[c] = rz_next;
-            for (size_t k = 0; k < samples; ++k) pc[k] = rc[k] * inverse[k] + beta * pc[k];
-            const double relative = std::sqrt(rr) / norm_b[c];
-            result.residual = std::max(result.residual, relative);
-            if (relative > o.tolerance) still.push_back(c);
+        for (size_t a = 0; a < n; ++a) {
+            if (relative[a] < 0) continue;
+            result.residual = std::max(result.residual, relative[a]);
+            if (relative[a] > o.tolerance) still.push_back(active[a]);
         }
         active = std::move(still);
     }
