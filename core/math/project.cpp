@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
 #include <utility>
 
 #include "core/math/error.h"
@@ -21,46 +22,110 @@ using Planes = std::vector<std::vector<float>>;
 struct NormalMatrix {
     int32_t side = 0, grid_size = 0;
     size_t quads = 0;
-    const int32_t* grid = nullptr;  // the plan's sample ids, grid_size a quad
-    std::vector<float> stencil;     // per quad, 9 planes of grid_size values (entry-major)
+    const int32_t* grid = nullptr;     // the plan's sample ids, grid_size a quad
+    std::unique_ptr<float[]> stencil;  // per quad, 9 planes of grid_size values (entry-major)
     std::vector<double> diagonal;
 
-    float* entry(size_t q, int e) { return stencil.data() + (q * 9 + e) * grid_size; }
-    const float* entry(size_t q, int e) const { return stencil.data() + (q * 9 + e) * grid_size; }
+    float* entry(size_t q, int e) { return stencil.get() + (q * 9 + e) * grid_size; }
+    const float* entry(size_t q, int e) const { return stencil.get() + (q * 9 + e) * grid_size; }
     double alpha = 0;  // alpha u
 };
 
 constexpr int stencil_entry(int dr, int dc) { return (dr + 1) * 3 + (dc + 1); }
 
-// Adds the data term (and the right-hand side R^T M I) of every pixel the plan renders.
-void add_data_term(const RenderPlan& plan, const Image& image, NormalMatrix& A, Planes& rhs) {
+// Which grid nodes of the quads are shared by several quads (the rest, a quad's own, are written
+// by that quad alone): per quad, the positions of its shared nodes.
+struct SharedNodes {
+    std::vector<uint8_t> shared;      // per quad and grid position
+    std::vector<int32_t> offsets, k;  // per quad, [offsets[q], offsets[q + 1]) of k
+};
+
+SharedNodes find_shared(const NormalMatrix& A, size_t samples) {
+    std::vector<uint8_t> count(samples, 0);
+    const size_t nodes = A.quads * A.grid_size;
+    for (size_t i = 0; i < nodes; ++i)
+        count[A.grid[i]] = static_cast<uint8_t>(std::min(count[A.grid[i]] + 1, 2));
+    SharedNodes s;
+    s.shared.resize(nodes);
+    s.offsets.push_back(0);
+    for (size_t q = 0; q < A.quads; ++q) {
+        for (int32_t k = 0; k < A.grid_size; ++k) {
+            const size_t i = q * A.grid_size + k;
+            s.shared[i] = count[A.grid[i]] > 1;
+            if (s.shared[i]) s.k.push_back(k);
+        }
+        s.offsets.push_back(static_cast<int32_t>(s.k.size()));
+    }
+    return s;
+}
+
+// Zeroes the stencils and adds the data term (and the right-hand side R^T M I) of every pixel the
+// plan renders, the quads shared among the cores. A quad's stencils are its own; its right-hand
+// side is summed per quad, written at once where the quad owns the node, and otherwise kept in
+// `stash` and added afterwards in quad order (the same sums whatever the thread count).
+void add_data_term(const RenderPlan& plan, const Image& image, const SharedNodes& shared,
+                   NormalMatrix& A, Planes& rhs) {
     const int channels = image.channels();
     constexpr float kUnit = 1.0f / 65536.0f;
     const int dr[4] = {0, 0, 1, 1}, dc[4] = {0, 1, 0, 1};
     const int32_t offset[4] = {0, 1, A.side, A.side + 1};
-    size_t i = 0;
+    // The pixels of quad q are the plan's entries from first_pixel[q] on.
+    std::vector<size_t> first_pixel(A.quads + 1, 0);
     for (size_t q = 0; q < A.quads; ++q) {
-        const int32_t* ids = A.grid + q * A.grid_size;
-        for (int32_t run = plan.quad_runs[q]; run < plan.quad_runs[q + 1]; ++run) {
-            const int32_t start = plan.run_start[run], length = plan.run_length[run];
-            for (int32_t n = 0; n < length; ++n, ++i) {
-                const size_t px = static_cast<size_t>(start + n);
-                bool finite = true;
-                for (int c = 0; c < channels; ++c) finite &= std::isfinite(image.planes[c][px]);
-                if (!finite) continue;
-                const float s = plan.st[i][0] * kUnit, t = plan.st[i][1] * kUnit;
-                const float w[4] = {(1 - s) * (1 - t), s * (1 - t), (1 - s) * t, s * t};
-                const int32_t cell = plan.cell[i];
-                for (int a = 0; a < 4; ++a) {
-                    const int32_t node = cell + offset[a];
-                    for (int b = 0; b < 4; ++b) {
-                        A.entry(q, stencil_entry(dr[b] - dr[a], dc[b] - dc[a]))[node] +=
-                            w[a] * w[b];
+        size_t count = 0;
+        for (int32_t run = plan.quad_runs[q]; run < plan.quad_runs[q + 1]; ++run)
+            count += static_cast<size_t>(plan.run_length[run]);
+        first_pixel[q + 1] = first_pixel[q] + count;
+    }
+    const size_t stashed = shared.k.size();
+    std::vector<float> stash(static_cast<size_t>(channels) * stashed);
+    parallel_for(static_cast<int64_t>(A.quads), [&](int64_t begin, int64_t end) {
+        std::vector<float> local(static_cast<size_t>(channels) * A.grid_size);
+        for (auto q = static_cast<size_t>(begin); q < static_cast<size_t>(end); ++q) {
+            std::fill_n(A.entry(q, 0), 9 * static_cast<size_t>(A.grid_size), 0.0f);
+            std::fill(local.begin(), local.end(), 0.0f);
+            size_t i = first_pixel[q];
+            for (int32_t run = plan.quad_runs[q]; run < plan.quad_runs[q + 1]; ++run) {
+                const int32_t start = plan.run_start[run], length = plan.run_length[run];
+                for (int32_t n = 0; n < length; ++n, ++i) {
+                    const size_t px = static_cast<size_t>(start + n);
+                    bool finite = true;
+                    for (int c = 0; c < channels; ++c) finite &= std::isfinite(image.planes[c][px]);
+                    if (!finite) continue;
+                    const float s = plan.st[i][0] * kUnit, t = plan.st[i][1] * kUnit;
+                    const float w[4] = {(1 - s) * (1 - t), s * (1 - t), (1 - s) * t, s * t};
+                    const int32_t cell = plan.cell[i];
+                    for (int a = 0; a < 4; ++a) {
+                        const int32_t node = cell + offset[a];
+                        for (int b = 0; b < 4; ++b) {
+                            A.entry(q, stencil_entry(dr[b] - dr[a], dc[b] - dc[a]))[node] +=
+                                w[a] * w[b];
+                        }
+                        for (int c = 0; c < channels; ++c)
+                            local[c * A.grid_size + node] += w[a] * image.planes[c][px];
                     }
-                    const int32_t id = ids[cell + offset[a]];
-                    for (int c = 0; c < channels; ++c) rhs[c][id] += w[a] * image.planes[c][px];
                 }
             }
+            const int32_t* ids = A.grid + q * A.grid_size;
+            const uint8_t* is_shared = shared.shared.data() + q * A.grid_size;
+            for (int c = 0; c < channels; ++c) {
+                int32_t next = shared.offsets[q];
+                const float* l = local.data() + c * A.grid_size;
+                for (int32_t k = 0; k < A.grid_size; ++k) {
+                    if (is_shared[k]) {
+                        stash[c * stashed + next++] = l[k];
+                    } else {
+                        rhs[c][ids[k]] = l[k];
+                    }
+                }
+            }
+        }
+    });
+    for (int c = 0; c < channels; ++c) {
+        for (size_t q = 0; q < A.quads; ++q) {
+            const int32_t* ids = A.grid + q * A.grid_size;
+            for (int32_t i = shared.offsets[q]; i < shared.offsets[q + 1]; ++i)
+                rhs[c][ids[shared.k[i]]] += stash[c * stashed + i];
         }
     }
 }
@@ -88,32 +153,6 @@ void add_smoothness(NormalMatrix& A, float weight) {
             }
         }
     }
-}
-
-// Which grid nodes of the quads are shared by several quads (the rest, a quad's own, are written
-// by that quad alone): per quad, the positions of its shared nodes.
-struct SharedNodes {
-    std::vector<uint8_t> shared;      // per quad and grid position
-    std::vector<int32_t> offsets, k;  // per quad, [offsets[q], offsets[q + 1]) of k
-};
-
-SharedNodes find_shared(const NormalMatrix& A, size_t samples) {
-    std::vector<uint8_t> count(samples, 0);
-    const size_t nodes = A.quads * A.grid_size;
-    for (size_t i = 0; i < nodes; ++i)
-        count[A.grid[i]] = static_cast<uint8_t>(std::min(count[A.grid[i]] + 1, 2));
-    SharedNodes s;
-    s.shared.resize(nodes);
-    s.offsets.push_back(0);
-    for (size_t q = 0; q < A.quads; ++q) {
-        for (int32_t k = 0; k < A.grid_size; ++k) {
-            const size_t i = q * A.grid_size + k;
-            s.shared[i] = count[A.grid[i]] > 1;
-            if (s.shared[i]) s.k.push_back(k);
-        }
-        s.offsets.push_back(static_cast<int32_t>(s.k.size()));
-    }
-    return s;
 }
 
 // y_c = A x_c for the channels c in `active`, the quads shared among the cores: per quad, its grid
@@ -145,14 +184,24 @@ void multiply(const NormalMatrix& A, const SharedNodes& s, const Planes& x, Plan
             }
             int32_t next_shared = s.offsets[q];
             for (int32_t r = 0; r < side; ++r) {
-                std::fill(out.begin(), out.end(), 0.0f);
-                for (int e = 0; e < 9; ++e) {
-                    const float* __restrict st = A.entry(q, e) + r * side;
-                    for (size_t a = 0; a < n; ++a) {
-                        const float* __restrict ge =
-                            local.data() + a * padded + (r + 1) * P + 1 + offset[e];
-                        float* __restrict o = out.data() + a * side;
-                        for (int32_t c = 0; c < side; ++c) o[c] += st[c] * ge[c];
+                const float* st[9];
+                for (int e = 0; e < 9; ++e) st[e] = A.entry(q, e) + r * side;
+                for (size_t a = 0; a < n; ++a) {
+                    // The nine products summed in a register, in entry order.
+                    const float* __restrict g = local.data() + a * padded + (r + 1) * P + 1;
+                    float* __restrict o = out.data() + a * side;
+                    for (int32_t c = 0; c < side; ++c) {
+                        float sum = 0.0f;
+                        sum += st[0][c] * g[c + offset[0]];
+                        sum += st[1][c] * g[c + offset[1]];
+                        sum += st[2][c] * g[c + offset[2]];
+                        sum += st[3][c] * g[c + offset[3]];
+                        sum += st[4][c] * g[c + offset[4]];
+                        sum += st[5][c] * g[c + offset[5]];
+                        sum += st[6][c] * g[c + offset[6]];
+                        sum += st[7][c] * g[c + offset[7]];
+                        sum += st[8][c] * g[c + offset[8]];
+                        o[c] = sum;
                     }
                 }
                 const int32_t* row_ids = ids + r * side;
@@ -286,11 +335,12 @@ Projection project_image(const Image& image, const Hierarchy& h,
     A.grid_size = A.side * A.side;
     A.quads = plan.quad_runs.size() - 1;
     A.grid = plan.grid.data();
-    A.stencil.assign(A.quads * 9 * A.grid_size, 0.0f);
+    A.stencil.reset(new float[A.quads * 9 * A.grid_size]);  // zeroed per quad by add_data_term
+    const SharedNodes shared = find_shared(A, samples);
     const double unit = static_cast<double>(image.width) * image.height / samples;
     A.alpha = o.anchor_weight * unit;
     Planes b(channels, std::vector<float>(samples, 0.0f));
-    add_data_term(plan, image, A, b);
+    add_data_term(plan, image, shared, A, b);
     add_smoothness(A, static_cast<float>(o.smoothness * unit));
     A.diagonal.assign(samples, A.alpha);
     for (size_t q = 0; q < A.quads; ++q) {
@@ -310,7 +360,6 @@ Projection project_image(const Image& image, const Hierarchy& h,
     Planes r(channels, std::vector<float>(samples)), p = r, Ap = r;
     std::vector<int> all(channels);
     for (int c = 0; c < channels; ++c) all[c] = c;
-    const SharedNodes shared = find_shared(A, samples);
     std::vector<float> products;
     multiply(A, shared, x, Ap, all, products);
     std::vector<double> rz(channels), norm_b(channels);
