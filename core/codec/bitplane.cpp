@@ -88,9 +88,18 @@ class Traversal {
           side_(side),
           state_(value.size(), std::vector<uint8_t>(layout.size, 0)),
           near_(value.size(), std::vector<uint8_t>(layout.size, 0)),
+          candidates_(value.size(), std::vector<uint64_t>((layout.size + 63) / 64, 0)),
+          significant_(value.size(), std::vector<uint64_t>((layout.size + 63) / 64, 0)),
           models_(layout.bands.size() * 4) {
         if (!options.fast_start) {
             for (BandModels& m : models_) m.settle();
+        }
+        // Positions of the coefficient ids, unless the order is the identity (the mesh's).
+        bool identity = true;
+        for (int32_t k = 0; k < layout.size && identity; ++k) identity = layout.order[k] == k;
+        if (!identity) {
+            position_.resize(layout.size);
+            for (int32_t k = 0; k < layout.size; ++k) position_[layout.order[k]] = k;
         }
     }
 
@@ -150,16 +159,43 @@ class Traversal {
     }
     // A coefficient became significant: its neighbours count it (the relation is symmetric, and
     // primary on both sides; coding_layout_test checks this).
-    void count_significant(uint8_t* near, int32_t k) const {
+    // Each neighbour not yet significant becomes a candidate of pass 0.
+    void count_significant(uint8_t* near, const uint8_t* state, uint64_t* candidates,
+                           int32_t k) const {
         const int32_t begin = layout_.nb_offsets[k], split = begin + layout_.nb_primary[k];
         for (int32_t i = begin; i < split; ++i) {
-            uint8_t& n = near[layout_.nb[i]];
+            const int32_t id = layout_.nb[i];
+            uint8_t& n = near[id];
             if ((n & 15) < 15) ++n;
+            if (!(state[id] & kSignificant)) set_bit(candidates, position(id));
         }
         for (int32_t i = split; i < layout_.nb_offsets[k + 1]; ++i) {
-            uint8_t& n = near[layout_.nb[i]];
+            const int32_t id = layout_.nb[i];
+            uint8_t& n = near[id];
             if ((n >> 4) < 15) n += 16;
+            if (!(state[id] & kSignificant)) set_bit(candidates, position(id));
         }
+    }
+    int32_t position(int32_t id) const { return position_.empty() ? id : position_[id]; }
+    static void set_bit(uint64_t* bits, int32_t k) { bits[k >> 6] |= uint64_t{1} << (k & 63); }
+    static void clear_bit(uint64_t* bits, int32_t k) { bits[k >> 6] &= ~(uint64_t{1} << (k & 63)); }
+    // The set positions of `bits` in [begin, end), in increasing order, each passed to visit (which
+    // returns false to stop); bits that visit sets ahead of the current position are seen too.
+    template <class Visit>
+    static bool for_each_set(const uint64_t* bits, int32_t begin, int32_t end, Visit&& visit) {
+        int32_t k = begin;
+        while (k < end) {
+            const uint64_t word = bits[k >> 6] >> (k & 63);
+            if (word == 0) {
+                k = ((k >> 6) + 1) << 6;
+                continue;
+            }
+            k += std::countr_zero(word);
+            if (k >= end) break;
+            if (!visit(k)) return false;
+            ++k;
+        }
+        return true;
     }
     static int parent_significant(const uint8_t* state, int32_t id) {
         return (state[id] & kParent) ? 1 : 0;
@@ -190,23 +226,30 @@ class Traversal {
         const int negative = side_.bit(m.sign[sign_context(state, k)], v < 0);
         if (side_.stopped()) return false;
         state[id] |= kSignificant | (negative ? kNegative : 0);
-        count_significant(near_[c_].data(), k);
+        uint64_t* candidates = candidates_[c_].data();
+        clear_bit(candidates, k);
+        set_bit(significant_[c_].data(), k);
+        count_significant(near_[c_].data(), state, candidates, k);
         for (int32_t i = layout_.ch_offsets[id]; i < layout_.ch_offsets[id + 1]; ++i) {
-            state[layout_.ch[i]] |= kParent;
+            const int32_t child = layout_.ch[i];
+            state[child] |= kParent;
+            if (!(state[child] & kSignificant)) set_bit(candidates, position(child));
         }
         if constexpr (std::is_same_v<Side, DecodeSide>) v = negative ? -(1 << p) : 1 << p;
         return true;
     }
 
     // kRun coefficients from position k, none significant, none visited in this plane, none with
-    // a significant neighbour or parent.
-    bool isolated_run(const uint8_t* state, const uint8_t* near, const uint8_t* known, int32_t k,
-                      int p) const {
-        for (int i = 0; i < kRun; ++i) {
-            const int32_t id = layout_.order[k + i];
-            if (state[id] || near[id] || known[id] == p) return false;
-        }
-        return true;
+    // a significant neighbour or parent: none is a candidate or significant (pass 2 visits them
+    // in order, and the coefficients ahead of it that passes 0 and 1 visited are one or the other).
+    bool isolated_run(int c, int32_t k) const {
+        static_assert(kRun <= 32);
+        const uint64_t* cand = candidates_[c].data();
+        const uint64_t* sig = significant_[c].data();
+        const int32_t w = k >> 6, b = k & 63;
+        uint64_t busy = (cand[w] | sig[w]) >> b;
+        if (b + kRun > 64) busy |= (cand[w + 1] | sig[w + 1]) << (64 - b);
+        return (busy & ((uint64_t{1} << kRun) - 1)) == 0;
     }
 
     // Run mode (EBCOT's): one decision for kRun isolated coefficients; when one of them turns
@@ -244,22 +287,20 @@ class Traversal {
         const uint8_t* near = near_[c].data();
         c_ = c;
         if (pass == 0) {
-            // Significance where a neighbour or parent is significant.
-            for (int32_t k = band.begin; k < band.end; ++k) {
+            // Significance where a neighbour or parent is significant: the candidates, which are
+            // exactly the coefficients not significant with a significant neighbour or parent.
+            return for_each_set(candidates_[c].data(), band.begin, band.end, [&](int32_t k) {
                 const int32_t id = layout_.order[k];
-                if (state[id] & kSignificant) continue;
                 const int nb = significant_neighbours(near, id);
                 const int pa = parent_significant(state, id);
-                if (nb == 0 && pa == 0) continue;
-                if (!significance(m, state, k, id, p, nb, pa, value[id], known[id])) return false;
-            }
-            return true;
+                return significance(m, state, k, id, p, nb, pa, value[id], known[id]);
+            });
         }
         if (pass == 1) {
             // Refinement of the coefficients significant before this plane.
-            for (int32_t k = band.begin; k < band.end; ++k) {
+            return for_each_set(significant_[c].data(), band.begin, band.end, [&](int32_t k) {
                 const int32_t id = layout_.order[k];
-                if (!(state[id] & kSignificant) || known[id] == p) continue;
+                if (known[id] == p) return true;
                 const int ctx = (state[id] & kRefined)             ? 2
                                 : significant_neighbours(near, id) ? 1
                                                                    : 0;
@@ -270,13 +311,12 @@ class Traversal {
                 }
                 state[id] |= kRefined;
                 known[id] = static_cast<uint8_t>(p);
-            }
-            return true;
+                return true;
+            });
         }
         // Significance of the rest, isolated coefficients kRun at a time where they line up.
         for (int32_t k = band.begin; k < band.end; ++k) {
-            if ((k - band.begin) % kRun == 0 && k + kRun <= band.end &&
-                isolated_run(state, near, known, k, p)) {
+            if ((k - band.begin) % kRun == 0 && k + kRun <= band.end && isolated_run(c, k)) {
                 const int settled = run(m, state, value, known, k, p);
                 if (settled == 0) return false;
                 k += settled - 1;
@@ -298,7 +338,11 @@ class Traversal {
     Side& side_;
     std::vector<std::vector<uint8_t>> state_;
     std::vector<std::vector<uint8_t>> near_;  // significant neighbour counts per coefficient
-    int c_ = 0;                               // the channel being coded
+    // Per channel, bits by position: pass 0's candidates (not significant, a significant
+    // neighbour or parent) and the significant coefficients, so that passes 0 and 1 skip the rest.
+    std::vector<std::vector<uint64_t>> candidates_, significant_;
+    std::vector<int32_t> position_;  // of each coefficient id in `order` (empty: the identity)
+    int c_ = 0;                      // the channel being coded
     std::vector<BandModels> models_;
 };
 
