@@ -2,7 +2,8 @@
 # The README's commands: installs missing Debian packages, configures, builds, then runs
 #   ./run.sh demo       tesswave demo on the built-in samples (outputs in out/demo)
 #   ./run.sh test       the whole test suite (warnings as errors)
-#   ./run.sh sanitize   the test suite under -fsanitize=address,undefined
+#   ./run.sh sanitize   the test suite under -fsanitize=address,undefined (clang)
+#   ./run.sh fuzz [s]   the libFuzzer targets, s seconds each (clang, address,undefined)
 #   ./run.sh bench      the Google Benchmark kernels (Release)
 #   ./run.sh fresh      the demo and test commands in a clean Debian 12 root (.ci/fresh-machine)
 set -euo pipefail
@@ -52,25 +53,24 @@ test)
     build build "${main_build[@]}"
     ctest --test-dir build --output-on-failure --no-tests=error -j "$(nproc)"
     ;;
-sanitize)
-    build build-asan -DCMAKE_BUILD_TYPE=RelWithDebInfo -DTESSWAVE_SANITIZE=ON -DTESSWAVE_STRICT=ON
-    # Third-party leak suppressions (see the file) need full stacks: libstdc++ has no frame
-    # pointers for the fast unwinder.
-    export LSAN_OPTIONS="suppressions=$PWD/tests/lsan.supp"
-    export ASAN_OPTIONS="fast_unwind_on_malloc=0"
-    ctest --test-dir build-asan --output-on-failure --no-tests=error -j "$(nproc)"
-    ;;
-fuzz)  # ./run.sh fuzz [seconds per target]: the input tests under the sanitizers, then libFuzzer
+sanitize|fuzz)
     DEBIAN_FRONTEND=noninteractive $([[ $(id -u) -eq 0 ]] || echo sudo) apt-get install -y -qq clang >/dev/null
-    # Built with clang and ASan/UBSan: the four fuzz targets and the tests of everything that reads
-    # input (tesswave_input_tests: meshes, points, images, clips, .twi and .twv, and the indexing
-    # underneath; the whole suite under the sanitizers is ./run.sh sanitize, too long for CI). The
-    # seeds are written by the release binary that test and demo build (a no-op after ./run.sh test).
+    # One clang tree with AddressSanitizer and UBSan (build-fuzz): the whole test suite and the
+    # libFuzzer targets. sanitize builds it all and runs every test (about 5 minutes to build and
+    # 13 to run on 2 cores); fuzz builds only the four targets (nothing after sanitize).
     fuzzers=(mesh_fuzz points_fuzz twi_fuzz twv_fuzz)
-    CXX=clang++ build build-fuzz -DTESSWAVE_BUILD_FUZZERS=ON -DTESSWAVE_BUILD_TESTS=OFF \
-        -- --target "${fuzzers[@]}" tesswave_input_tests
-    LSAN_OPTIONS="suppressions=$PWD/tests/lsan.supp" ASAN_OPTIONS="fast_unwind_on_malloc=0" \
-        ctest --test-dir build-fuzz --output-on-failure --no-tests=error -j "$(nproc)"
+    targets=()
+    [[ $job == fuzz ]] && targets=(-- --target "${fuzzers[@]}")
+    CXX=clang++ build build-fuzz -DTESSWAVE_BUILD_FUZZERS=ON -DTESSWAVE_BUILD_TESTS=ON "${targets[@]}"
+    if [[ $job == sanitize ]]; then
+        # Third-party leak suppressions (see the file) need full stacks: libstdc++ has no frame
+        # pointers for the fast unwinder.
+        LSAN_OPTIONS="suppressions=$PWD/tests/lsan.supp" ASAN_OPTIONS="fast_unwind_on_malloc=0" \
+            ctest --test-dir build-fuzz --output-on-failure --no-tests=error -j "$(nproc)"
+        exit
+    fi
+    # ./run.sh fuzz [seconds per target]: libFuzzer runs from seeds that the release binary
+    # (built by test and demo; a no-op after ./run.sh test) writes.
     build build "${main_build[@]}" -- --target tesswave
     tesswave=./build/apps/tesswave
     mkdir -p build-fuzz/corpus
@@ -101,7 +101,7 @@ bench)
     ./build/tests/tesswave_bench "${@:2}"
     ;;
 *)
-    echo "usage: ./run.sh demo|test|sanitize|fuzz|bench|fresh" >&2
+    echo "usage: ./run.sh demo|test|sanitize|fuzz [seconds]|bench|fresh" >&2
     exit 2
     ;;
 esac

@@ -133,12 +133,22 @@ std::vector<double> grid_band_norms(int width, int height, int levels, GridWavel
 CodingLayout grid_layout(int width, int height, int levels, GridWavelet wavelet, bool norms) {
     CodingLayout layout;
     layout.size = width * height;
-    layout.order.reserve(layout.size);
-    layout.nb_primary.reserve(layout.size);
-    layout.nb_offsets.reserve(layout.size + 1);
-    layout.pa_offsets.reserve(layout.size + 1);
-    layout.nb.reserve(static_cast<size_t>(layout.size) * 8);
-    layout.pa.reserve(layout.size);
+    const auto size = static_cast<size_t>(layout.size);
+    // Filled through cursors (one entry a coefficient; at most 8 neighbours and 1 parent each),
+    // then cut to what was written.
+    layout.order.resize(size);
+    layout.nb_primary.resize(size);
+    layout.nb_offsets.resize(size);
+    layout.pa_offsets.resize(size);
+    layout.nb.resize(size * 8);
+    layout.pa.resize(size);
+    int32_t* order = layout.order.data();
+    uint8_t* primary_count = layout.nb_primary.data();
+    int32_t* nb_offsets = layout.nb_offsets.data();
+    int32_t* pa_offsets = layout.pa_offsets.data();
+    int32_t* nb = layout.nb.data();
+    int32_t* pa = layout.pa.data();
+    int32_t k = 0, nbn = 0, pan = 0;
     const std::vector<GridBand> bands = grid_bands(width, height, levels);
     const char types[] = {'L', 'H', 'V', 'D'};
     std::vector<double> band_norms(bands.size(), 1.0);
@@ -148,7 +158,7 @@ CodingLayout grid_layout(int width, int height, int levels, GridWavelet wavelet,
     }
     for (size_t b = 0; b < bands.size(); ++b) {
         const GridBand& g = bands[b];
-        const int32_t begin = static_cast<int32_t>(layout.order.size());
+        const int32_t begin = k;
         // The same orientation one level coarser (none for the LL band and the coarsest details).
         const GridBand* coarser = nullptr;
         if (g.type != 0 && b >= 4 && bands[b - 3].level == g.level + 1) coarser = &bands[b - 3];
@@ -168,32 +178,41 @@ CodingLayout grid_layout(int width, int height, int levels, GridWavelet wavelet,
                 }
             }
         }
+        int32_t offset[8];
+        for (int i = 0; i < 8; ++i) offset[i] = dys[i] * width + dxs[i];
         for (int y = 0; y < g.height; ++y) {
             const bool inner_row = y > 0 && y + 1 < g.height;
-            for (int xx = 0; xx < g.width; ++xx) {
-                const int32_t id = (g.y0 + y) * width + g.x0 + xx;
-                start_entry(layout, id);
+            const int32_t row = (g.y0 + y) * width + g.x0;
+            for (int xx = 0; xx < g.width; ++xx, ++k) {
+                const int32_t id = row + xx;
+                order[k] = id;
+                nb_offsets[k] = nbn;
+                pa_offsets[k] = pan;
                 if (inner_row && xx > 0 && xx + 1 < g.width) {
-                    for (int i = 0; i < 8; ++i) layout.nb.push_back(id + dys[i] * width + dxs[i]);
-                    layout.nb_primary.back() = static_cast<uint8_t>(primaries);
+                    for (int i = 0; i < 8; ++i) nb[nbn + i] = id + offset[i];
+                    nbn += 8;
+                    primary_count[k] = static_cast<uint8_t>(primaries);
                 } else {
+                    int count = 0;
                     for (int i = 0; i < 8; ++i) {
                         const int yy = y + dys[i], xn = xx + dxs[i];
                         if (yy < 0 || yy >= g.height || xn < 0 || xn >= g.width) continue;
-                        layout.nb.push_back(id + dys[i] * width + dxs[i]);
-                        layout.nb_primary.back() += i < primaries;
+                        nb[nbn++] = id + offset[i];
+                        count += i < primaries;
                     }
+                    primary_count[k] = static_cast<uint8_t>(count);
                 }
                 if (coarser) {
                     const int py = std::min(y / 2, coarser->height - 1);
                     const int px = std::min(xx / 2, coarser->width - 1);
-                    layout.pa.push_back((coarser->y0 + py) * width + coarser->x0 + px);
+                    pa[pan++] = (coarser->y0 + py) * width + coarser->x0 + px;
                 }
             }
         }
-        layout.bands.push_back({g.level, types[g.type], begin,
-                                static_cast<int32_t>(layout.order.size()), band_norms[b]});
+        layout.bands.push_back({g.level, types[g.type], begin, k, band_norms[b]});
     }
+    layout.nb.resize(static_cast<size_t>(nbn));
+    layout.pa.resize(static_cast<size_t>(pan));
     close_lists(layout);
     return layout;
 }
