@@ -1,11 +1,6 @@
 #include "core/codec/range_coder.h"
 
 namespace tesswave {
-namespace {
-
-constexpr uint32_t kTop = 1u << 24;  // renormalize when the range falls below this
-
-}  // namespace
 
 // low_ holds 33 bits: bit 32 is a carry into the bytes already cached.
 void RangeEncoder::shift_low() {
@@ -22,26 +17,11 @@ void RangeEncoder::shift_low() {
     low_ = (low_ & 0x00FFFFFFu) << 8;
 }
 
-void RangeEncoder::encode(BitModel& model, int bit) {
-    const uint32_t bound = (range_ >> BitModel::kBits) * model.p0();
-    if (bit == 0) {
-        range_ = bound;
-    } else {
-        low_ += bound;
-        range_ -= bound;
-    }
-    model.update(bit);
-    while (range_ < kTop) {
-        range_ <<= 8;
-        shift_low();
-    }
-}
-
 void RangeEncoder::encode_raw(uint32_t value, int bits) {
     for (int i = bits - 1; i >= 0; --i) {
         range_ >>= 1;
         if ((value >> i) & 1) low_ += range_;
-        while (range_ < kTop) {
+        while (range_ < kRangeTop) {
             range_ <<= 8;
             shift_low();
         }
@@ -60,32 +40,6 @@ RangeDecoder::RangeDecoder(std::span<const uint8_t> input) : in_(input) {
     for (int i = 0; i < 4; ++i) code_ = (code_ << 8) | next_byte();
 }
 
-uint8_t RangeDecoder::next_byte() {
-    if (pos_ < in_.size()) return in_[pos_++];
-    exhausted_ = true;
-    return 0;
-}
-
-int RangeDecoder::decode(BitModel& model) {
-    if (exhausted_) return 0;
-    const uint32_t bound = (range_ >> BitModel::kBits) * model.p0();
-    int bit;
-    if (code_ < bound) {
-        range_ = bound;
-        bit = 0;
-    } else {
-        code_ -= bound;
-        range_ -= bound;
-        bit = 1;
-    }
-    model.update(bit);
-    while (range_ < kTop) {
-        range_ <<= 8;
-        code_ = (code_ << 8) | next_byte();
-    }
-    return bit;
-}
-
 uint32_t RangeDecoder::decode_raw(int bits) {
     uint32_t value = 0;
     for (int i = 0; i < bits; ++i) {
@@ -94,7 +48,7 @@ uint32_t RangeDecoder::decode_raw(int bits) {
         const uint32_t bit = code_ >= range_ ? 1 : 0;
         if (bit) code_ -= range_;
         value = (value << 1) | bit;
-        while (range_ < kTop) {
+        while (range_ < kRangeTop) {
             range_ <<= 8;
             code_ = (code_ << 8) | next_byte();
         }

@@ -46,9 +46,26 @@ struct BitModel {
     }
 };
 
+// Ranges below this are renormalized (a byte shifted out or in).
+inline constexpr uint32_t kRangeTop = 1u << 24;
+
 class RangeEncoder {
   public:
-    void encode(BitModel& model, int bit);
+    // Inline: the bit-plane coder makes one call a decision.
+    void encode(BitModel& model, int bit) {
+        const uint32_t bound = (range_ >> BitModel::kBits) * model.p0();
+        if (bit == 0) {
+            range_ = bound;
+        } else {
+            low_ += bound;
+            range_ -= bound;
+        }
+        model.update(bit);
+        while (range_ < kRangeTop) {
+            range_ <<= 8;
+            shift_low();
+        }
+    }
     // `bits` raw bits (<= 24) with probability 1/2 each, most significant first.
     void encode_raw(uint32_t value, int bits);
     // Bytes the stream would have if finished now (exact: finish() returns this many).
@@ -69,8 +86,27 @@ class RangeDecoder {
     explicit RangeDecoder(std::span<const uint8_t> input);
     // The decoded bit. Every bit returned by a call made while exhausted() was false is the
     // encoder's bit (a decision uses only bytes already read; a missing byte can only be needed
-    // by the renormalization after it). Calls made once exhausted() is true return 0.
-    int decode(BitModel& model);
+    // by the renormalization after it). Calls made once exhausted() is true return 0. Inline: the
+    // bit-plane coder makes one call a decision.
+    int decode(BitModel& model) {
+        if (exhausted_) return 0;
+        const uint32_t bound = (range_ >> BitModel::kBits) * model.p0();
+        int bit;
+        if (code_ < bound) {
+            range_ = bound;
+            bit = 0;
+        } else {
+            code_ -= bound;
+            range_ -= bound;
+            bit = 1;
+        }
+        model.update(bit);
+        while (range_ < kRangeTop) {
+            range_ <<= 8;
+            code_ = (code_ << 8) | next_byte();
+        }
+        return bit;
+    }
     uint32_t decode_raw(int bits);
     // True once the decoder needed a byte beyond its input.
     bool exhausted() const { return exhausted_; }
@@ -78,7 +114,11 @@ class RangeDecoder {
     size_t position() const { return pos_; }
 
   private:
-    uint8_t next_byte();
+    uint8_t next_byte() {
+        if (pos_ < in_.size()) return in_[pos_++];
+        exhausted_ = true;
+        return 0;
+    }
     std::span<const uint8_t> in_;
     size_t pos_ = 0;
     uint32_t range_ = 0xFFFFFFFFu;
