@@ -374,6 +374,24 @@ TEST(TwvRobustness, ALiftedGroupsMemoryIsBoundedByTheFileSize) {
     }
 }
 
+// The encoder refuses to write a file its decoder would stop on: 40 flat 700x700 frames (20 M
+// frame pixels) coded into a few hundred bytes are more work than such a file may cost.
+TEST(TwvRobustness, TheEncoderRefusesAFileTooSmallForItsDecodingWork) {
+    const std::string path = temp_path("flat.twv");
+    Image flat = make_image(700, 700, 3, SampleFormat::f32);
+    for (auto& plane : flat.planes) std::fill(plane.begin(), plane.end(), 0.5f);
+    VideoEncoder encoder(path, 700, 700, 25,
+                         {.transform = TwiTransform::grid53, .group = 8, .kbps = 1});
+    for (int t = 0; t < 40; ++t) encoder.encode(flat);
+    try {
+        encoder.finish();
+        ADD_FAILURE() << "wrote a " << fs::file_size(path) << "-byte file of 40 700x700 frames";
+    } catch (const Error& e) {
+        EXPECT_NE(std::string(e.what()).find("raise the rate"), std::string::npos) << e.what();
+    }
+    EXPECT_FALSE(fs::exists(path));
+}
+
 TEST(TwvRobustness, SkimmingSeesTheFramesThatDecodingSees) {
     const std::string path = temp_path("skim.twv");
     for (bool low_delay : {true, false}) {

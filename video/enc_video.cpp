@@ -390,12 +390,16 @@ int64_t VideoEncoder::finish() {
     }
     // The decoder's work and group memory are weighed against the file's size as well.
     const int64_t bytes = static_cast<int64_t>(written_);
-    if (coded_frames_ * header_.width * header_.height > twv_work_allowed(bytes) ||
-        largest_group_bytes_ > twv_group_bytes_allowed(bytes)) {
+    if (coded_frames_ * header_.width * header_.height > twv_work_allowed(bytes)) {
         throw Error(str(path_, ": the file would be ", written_, " bytes, too few for ",
                         coded_frames_, " frames of ", header_.width, "x", header_.height,
-                        " to be decodable within the default limits (raise the rate, or shorten "
-                        "the groups with -g)"));
+                        " to be decodable within the default limits (raise the rate)"));
+    }
+    if (largest_group_bytes_ > twv_group_bytes_allowed(bytes)) {
+        throw Error(str(path_, ": the file would be ", written_, " bytes, too few for a group of ",
+                        largest_group_bytes_,
+                        " bytes of coefficients to be decodable within the default limits (raise "
+                        "the rate, or shorten the groups with -g)"));
     }
     out_.close();
     if (!out_) throw Error(str(path_, ": write failed"));
