@@ -208,9 +208,11 @@ TEST(TwvRobustness, ForeignAndEmptyFilesAreRefused) {
     fs::remove(path);
 }
 
-// A file of a header and the given chunks (valid CRCs), without an index.
-std::string crafted(const std::vector<Bytes>& chunks) {
-    Bytes file = write_twv_header({.width = 32, .height = 24});
+// A file of a header (32x24 frames unless given) and the given chunks (valid CRCs), without an
+// index.
+std::string crafted(const std::vector<Bytes>& chunks,
+                    const TwvHeader& header = {.width = 32, .height = 24}) {
+    Bytes file = write_twv_header(header);
     for (const Bytes& c : chunks) file.insert(file.end(), c.begin(), c.end());
     const std::string path = temp_path("crafted.twv");
     write_bytes(path, file);
@@ -306,15 +308,6 @@ TEST(TwvRobustness, ASmallFileClaimsNoMoreThanItsBytesJustify) {
     fs::remove(path);
 }
 
-// A file of `header` and the given chunks (valid CRCs), without an index.
-std::string crafted_clip(const TwvHeader& header, const std::vector<Bytes>& chunks) {
-    Bytes file = write_twv_header(header);
-    for (const Bytes& c : chunks) file.insert(file.end(), c.begin(), c.end());
-    const std::string path = temp_path("work.twv");
-    write_bytes(path, file);
-    return path;
-}
-
 // The reliability issue's decode-work probe: 1024x1024 frames are within what any file may claim,
 // but a few bytes make a frame, so a small file of many empty frames made the decoder work for
 // minutes. The frames decoded are now weighed against the file's bytes (work counted, not time).
@@ -328,7 +321,7 @@ TEST(TwvRobustness, DecodingWorkIsBoundedByTheFileSize) {
         frame.kind = t == 0 ? TwvFrameKind::intra : TwvFrameKind::delta;
         chunks.push_back(twv_chunk('F', write_twv_frame(frame, g)));
     }
-    const std::string path = crafted_clip(header, chunks);
+    const std::string path = crafted(chunks, header);
     const int64_t size = static_cast<int64_t>(fs::file_size(path));
     EXPECT_LT(size, 20'000);
     const int64_t allowed = twv_work_allowed(size) / (int64_t{header.width} * header.height);
@@ -358,7 +351,7 @@ TEST(TwvRobustness, ALiftedGroupsMemoryIsBoundedByTheFileSize) {
             band.kind = TwvFrameKind::band;
             chunks.push_back(twv_chunk('F', write_twv_frame(band, g)));
         }
-        const std::string path = crafted_clip(header, chunks);
+        const std::string path = crafted(chunks, header);
         const int64_t size = static_cast<int64_t>(fs::file_size(path));
         const int64_t needs = g.lifted * twv_frame_coefficient_bytes(g, header);
         const bool fits = needs <= twv_group_bytes_allowed(size);

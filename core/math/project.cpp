@@ -59,6 +59,15 @@ SharedNodes find_shared(const NormalMatrix& A, size_t samples) {
     return s;
 }
 
+// Adds the values stashed for the shared nodes (one per entry of s.k) to `plane` at their sample
+// ids, in quad order: the same sums whatever the thread count.
+void add_stashed(const NormalMatrix& A, const SharedNodes& s, const float* stash, float* plane) {
+    for (size_t q = 0; q < A.quads; ++q) {
+        const int32_t* ids = A.grid + q * A.grid_size;
+        for (int32_t i = s.offsets[q]; i < s.offsets[q + 1]; ++i) plane[ids[s.k[i]]] += stash[i];
+    }
+}
+
 // Zeroes the stencils and adds the data term (and the right-hand side R^T M I) of every pixel the
 // plan renders, the quads shared among the cores. A quad's stencils are its own; its right-hand
 // side is summed per quad, written at once where the quad owns the node, and otherwise kept in
@@ -121,13 +130,8 @@ void add_data_term(const RenderPlan& plan, const Image& image, const SharedNodes
             }
         }
     });
-    for (int c = 0; c < channels; ++c) {
-        for (size_t q = 0; q < A.quads; ++q) {
-            const int32_t* ids = A.grid + q * A.grid_size;
-            for (int32_t i = shared.offsets[q]; i < shared.offsets[q + 1]; ++i)
-                rhs[c][ids[shared.k[i]]] += stash[c * stashed + i];
-        }
-    }
+    for (int c = 0; c < channels; ++c)
+        add_stashed(A, shared, stash.data() + c * stashed, rhs[c].data());
 }
 
 // beta u (s_k - s_l)^2 for every edge of every quad's grid.
@@ -233,12 +237,7 @@ void multiply(const NormalMatrix& A, const SharedNodes& s, const Planes& x, Plan
                 for (int32_t i = s.offsets[q]; i < s.offsets[q + 1]; ++i)
                     yc[ids[s.k[i]]] = alpha * xc[ids[s.k[i]]];
             }
-            const float* shared_products = products.data() + a * shared;
-            for (size_t q = 0; q < A.quads; ++q) {
-                const int32_t* ids = A.grid + q * A.grid_size;
-                for (int32_t i = s.offsets[q]; i < s.offsets[q + 1]; ++i)
-                    yc[ids[s.k[i]]] += shared_products[i];
-            }
+            add_stashed(A, s, products.data() + a * shared, yc);
         }
     });
 }
