@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -100,7 +101,8 @@ TEST(ImageIo, bad_files_are_one_error_naming_the_file) {
 
 // An image bomb: a 1 KB PNG whose header claims 8000x8000 (64 M pixels, 1 GB as floats) is
 // refused from its header, as is one over the 2^26-pixel limit; a real 8000x8000 one-colour PNG
-// is larger than the 63 KB this asks for. NaN pixels are read as 0 and counted.
+// is larger than the 63 KB this asks for. NaN pixels are read as 0 and counted;
+// an image with nothing but NaN is refused.
 TEST(ImageIo, a_small_file_may_not_declare_a_huge_image) {
     const TempDir dir;
     const std::string small = (dir.path / "small.png").string();
@@ -143,6 +145,15 @@ TEST(ImageIo, a_small_file_may_not_declare_a_huge_image) {
     EXPECT_GE(notes.non_finite, 1);
     EXPECT_EQ(notes.non_finite, stored);
     EXPECT_EQ(back.planes[0][3], 0.0f);  // the NaN
+
+    Image all_nan = make_image(4, 4, 3, SampleFormat::f32);
+    for (auto& plane : all_nan.planes) {
+        std::fill(plane.begin(), plane.end(), std::numeric_limits<float>::quiet_NaN());
+    }
+    const std::string all_exr = (dir.path / "all_nan.exr").string();
+    write_image(all_nan, all_exr);
+    const std::string why = testing::error_of([&] { read_image(all_exr); });
+    EXPECT_NE(why.find("all_nan.exr: every value is NaN or infinite"), std::string::npos) << why;
 }
 
 }  // namespace

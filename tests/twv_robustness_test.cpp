@@ -353,7 +353,7 @@ TEST(TwvRobustness, ALiftedGroupsMemoryIsBoundedByTheFileSize) {
         }
         const std::string path = crafted(chunks, header);
         const int64_t size = static_cast<int64_t>(fs::file_size(path));
-        const int64_t needs = g.lifted * twv_frame_coefficient_bytes(g, header);
+        const int64_t needs = twv_lifted_group_bytes(g, header);
         const bool fits = needs <= twv_group_bytes_allowed(size);
         EXPECT_EQ(fits, side == 512) << needs << " bytes for a " << size << "-byte file";
         VideoDecoder decoder(path);

@@ -198,7 +198,7 @@ void VideoDecoder::decode_frame(const Chunk& chunk, Image* out) {
 // many as arrive intact, and inverts the temporal transform.
 void VideoDecoder::load_lifted_group() {
     const std::string group_what = str(path_, ": group at frame ", next_frame_);
-    const int64_t group_bytes = group_.lifted * twv_frame_coefficient_bytes(group_, header_);
+    const int64_t group_bytes = twv_lifted_group_bytes(group_, header_);
     const int64_t group_allowed =
         twv_group_bytes_allowed(static_cast<int64_t>(file_size_), limits_);
     if (group_bytes > group_allowed) {

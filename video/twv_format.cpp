@@ -135,6 +135,10 @@ int64_t twv_frame_coefficient_bytes(const TwvGroup& g, const TwvHeader& h) {
     return static_cast<int64_t>(samples) * h.channels * 4;
 }
 
+int64_t twv_lifted_group_bytes(const TwvGroup& g, const TwvHeader& h) {
+    return g.lifted * twv_frame_coefficient_bytes(g, h);
+}
+
 int twv_max_lifted_frames(const TwvGroup& g, const TwvHeader& h, const TwvLimits& limits) {
     const int64_t frame = std::max<int64_t>(twv_frame_coefficient_bytes(g, h), 1);
     return static_cast<int>(

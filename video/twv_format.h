@@ -119,6 +119,10 @@ int64_t twv_bytes_needed(int64_t pixels, const TwvLimits& limits = {});
 
 // The bytes one frame's coefficients take in memory (all channels).
 int64_t twv_frame_coefficient_bytes(const TwvGroup& group, const TwvHeader& header);
+
+// The bytes a lifted group's coefficients take in memory while it is decoded (0 for a
+// low-delay group): what the decoder and the encoder weigh against twv_group_bytes_allowed.
+int64_t twv_lifted_group_bytes(const TwvGroup& group, const TwvHeader& header);
 // The most frames a lifted group may have within the limits (at least 1).
 int twv_max_lifted_frames(const TwvGroup& group, const TwvHeader& header,
                           const TwvLimits& limits = {});

@@ -91,6 +91,9 @@ Image read_image(const std::string& path, const ImageLimits& limits, ImageNotes*
             image.planes[c][i] = finite ? v : 0.0f;
         }
     }
+    if (non_finite > 0 && non_finite == static_cast<int64_t>(n) * channels) {
+        throw Error(str(path, ": every value is NaN or infinite; there is no image to read"));
+    }
     if (notes) {
         notes->non_finite = non_finite;
         notes->decoder = in->has_error() ? in->geterror() : std::string();

@@ -25,7 +25,8 @@ struct ImageNotes {
     std::string decoder;     // the decoder's complaint about a file it still read (truncation)
 };
 
-// Throws Error("<path>: ...") for unreadable files and sizes beyond the limits.
+// Throws Error("<path>: ...") for unreadable files, sizes beyond the limits and images whose
+// every value is NaN or infinite (nothing would be left but zeros).
 Image read_image(const std::string& path, const ImageLimits& limits = {},
                  ImageNotes* notes = nullptr);
 
