@@ -233,5 +233,38 @@ TEST(StillCodec, fixed_grid_53_equals_the_mesh_path_on_a_pixel_aligned_grid_mesh
     EXPECT_GT(near_border, 0);
 }
 
+// The domain cache hands back the domain it holds for an equal shape, probe count and norms,
+// builds a new one for any difference, keeps at most four, and a cached decode equals a fresh one.
+TEST(StillCodec, domains_are_cached_by_shape_probes_and_norms) {
+    clear_domain_cache();
+    const Image image = scene(48, 40, 3);
+    const StillResult coded =
+        compress_image(image, {.transform = TwiTransform::mesh, .max_bytes = 400});
+    const DomainShape shape = still_shape(coded.header);
+    const std::span<const float> norms = coded.header.band_norms;
+    const auto first = shared_domain(shape, 0, norms);
+    EXPECT_EQ(shared_domain(shape, 0, norms), first);
+
+    DomainShape moved = shape;
+    moved.mesh.vertices[5].x += 0.5;
+    EXPECT_NE(shared_domain(moved, 0, norms), first);
+    std::vector<float> other_norms(norms.begin(), norms.end());
+    other_norms[0] *= 2;
+    EXPECT_NE(shared_domain(shape, 0, other_norms), first);
+    EXPECT_NE(shared_domain(shape, 1), first);
+    EXPECT_EQ(shared_domain(shape, 0, norms), first);  // four held: still there
+
+    DomainShape fifth = shape;
+    fifth.channel_factors[0] *= 2;
+    shared_domain(fifth, 0, norms);  // the least recently used (moved) leaves
+    EXPECT_EQ(shared_domain(shape, 0, norms), first);
+
+    // A decode through the cache equals one through a fresh domain.
+    const Image cached = decompress_image(coded.file, "scene.twi", {});
+    clear_domain_cache();
+    EXPECT_EQ(bytes_of(decompress_image(coded.file, "scene.twi", {})), bytes_of(cached));
+    EXPECT_NE(shared_domain(shape, 0, norms), first);  // cleared: built anew
+}
+
 }  // namespace
 }  // namespace tesswave

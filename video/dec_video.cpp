@@ -130,8 +130,7 @@ void VideoDecoder::start_group(const Chunk& chunk) {
         in_group_ = true;
         return;
     }
-    if (!domain_ || !same_domain(g, group_))
-        domain_ = std::make_unique<CodingDomain>(group_domain(header_, g, false));
+    if (!domain_ || !same_domain(g, group_)) domain_ = group_domain(header_, g, false);
     group_ = std::move(g);
     in_group_ = true;
 }

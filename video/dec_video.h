@@ -104,7 +104,7 @@ class VideoDecoder {
     TwvHeader header_;
     std::optional<TwvIndex> index_;
     TwvGroup group_;
-    std::unique_ptr<CodingDomain> domain_;
+    std::shared_ptr<const CodingDomain> domain_;
     bool in_group_ = false;
     int64_t next_frame_ = 0;  // the frame number the next frame chunk must carry
     Planes coefficients_;

@@ -92,7 +92,7 @@ VideoEncoder::VideoEncoder(const std::string& path, int width, int height, doubl
     header_.height = height;
     fps_fraction(fps, header_);
     group_ = choose_group(header_, o);
-    domain_ = std::make_unique<CodingDomain>(group_domain(header_, group_, true));
+    domain_ = group_domain(header_, group_, true);
     group_length_ =
         o.low_delay ? o.group : std::min(o.group, twv_max_lifted_frames(group_, header_));
     for (const CodingBand& b : domain_->layout().bands) {

@@ -148,7 +148,7 @@ class VideoEncoder {
     VideoEncodeOptions options_;
     TwvHeader header_;
     TwvGroup group_;
-    std::unique_ptr<CodingDomain> domain_;
+    std::shared_ptr<const CodingDomain> domain_;
     std::unique_ptr<MeshMotion> motion_;
     TwvIndex index_;
     uint64_t written_ = 0;

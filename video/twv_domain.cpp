@@ -8,7 +8,8 @@
 
 namespace tesswave::video {
 
-CodingDomain group_domain(const TwvHeader& header, const TwvGroup& group, bool measure_norms) {
+std::shared_ptr<const CodingDomain> group_domain(const TwvHeader& header, const TwvGroup& group,
+                                                 bool measure_norms) {
     if (!measure_norms && group.band_norms.empty()) {
         throw Error("group band count does not match its coding layout");
     }
@@ -26,8 +27,8 @@ CodingDomain group_domain(const TwvHeader& header, const TwvGroup& group, bool m
                       .levels = group.levels,
                       .mesh = std::move(rest),
                       .channel_factors = group.channel_factors};
-    return CodingDomain(std::move(shape), measure_norms ? 1 : 0,
-                        measure_norms ? std::span<const float>() : group.band_norms);
+    return shared_domain(shape, measure_norms ? 1 : 0,
+                         measure_norms ? std::span<const float>() : group.band_norms);
 }
 
 void add_decoded_residual(const CodingDomain& domain, const TwvFrame& frame, Planes& x,

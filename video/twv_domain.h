@@ -4,6 +4,7 @@
 // positions. One topology, many position sets.
 #pragma once
 
+#include <memory>
 #include <span>
 #include <vector>
 
@@ -14,8 +15,10 @@ namespace tesswave::video {
 
 using tesswave::Planes;
 
-// Norms are measured (encoder) when `measure_norms`, else taken from the group (decoder).
-CodingDomain group_domain(const TwvHeader& header, const TwvGroup& group, bool measure_norms);
+// Norms are measured (encoder) when `measure_norms`, else taken from the group (decoder). From
+// the domain cache (shared_domain): an encoder and decoder in one process share the hierarchy.
+std::shared_ptr<const CodingDomain> group_domain(const TwvHeader& header, const TwvGroup& group,
+                                                 bool measure_norms);
 
 // Decodes a frame's bit-planes and adds the dequantized residual to `coefficients` (the previous
 // frame's decoded coefficients, or zeros for an intra frame): the one step the encoder and the

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <bit>
 #include <cmath>
+#include <mutex>
 
 #include "core/math/colour.h"
 #include "core/math/error.h"
@@ -74,6 +75,69 @@ CodingDomain::CodingDomain(DomainShape shape, int probes, std::span<const float>
         }
         for (size_t b = 0; b < norms.size(); ++b) layout_.bands[b].norm = norms[b];
     }
+}
+
+namespace {
+
+struct DomainCache {
+    struct Entry {
+        int probes;
+        std::vector<float> norms;
+        std::shared_ptr<const CodingDomain> domain;
+    };
+    // At most 4 domains, of at most 2 M coefficients in all (a mesh domain takes about 150
+    // bytes a coefficient); a larger domain is built and returned, not kept.
+    static constexpr size_t kCapacity = 4;
+    static constexpr int64_t kMaxSize = int64_t{1} << 21;
+    std::mutex mutex;
+    std::vector<Entry> entries;  // most recently used last
+};
+
+DomainCache& domain_cache() {
+    static DomainCache* cache = new DomainCache;  // never destroyed: callers may outlive statics
+    return *cache;
+}
+
+}  // namespace
+
+std::shared_ptr<const CodingDomain> shared_domain(const DomainShape& shape, int probes,
+                                                  std::span<const float> norms) {
+    DomainCache& cache = domain_cache();
+    const auto same = [&](const DomainCache::Entry& e) {
+        return e.probes == probes && std::ranges::equal(e.norms, norms) &&
+               e.domain->shape() == shape;
+    };
+    {
+        const std::lock_guard lock(cache.mutex);
+        const auto hit = std::ranges::find_if(cache.entries, same);
+        if (hit != cache.entries.end()) {
+            std::rotate(hit, hit + 1, cache.entries.end());
+            return cache.entries.back().domain;
+        }
+    }
+    // Built outside the lock: other threads may use the cache meanwhile (two threads asking for
+    // one new domain both build it; the second one found is kept).
+    auto domain = std::make_shared<const CodingDomain>(shape, probes, norms);
+    if (domain->size() > DomainCache::kMaxSize) return domain;
+    const std::lock_guard lock(cache.mutex);
+    std::erase_if(cache.entries, same);
+    const auto held = [&] {
+        int64_t size = domain->size();
+        for (const auto& e : cache.entries) size += e.domain->size();
+        return size;
+    };
+    while (!cache.entries.empty() &&
+           (cache.entries.size() == DomainCache::kCapacity || held() > DomainCache::kMaxSize)) {
+        cache.entries.erase(cache.entries.begin());
+    }
+    cache.entries.push_back({probes, {norms.begin(), norms.end()}, domain});
+    return domain;
+}
+
+void clear_domain_cache() {
+    DomainCache& cache = domain_cache();
+    const std::lock_guard lock(cache.mutex);
+    cache.entries.clear();
 }
 
 float CodingDomain::step(int channel, int band, float base_step) const {

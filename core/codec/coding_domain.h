@@ -10,6 +10,7 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <span>
 #include <vector>
@@ -47,6 +48,8 @@ struct DomainShape {
     Mesh mesh = {};                                 // mesh path: T0 at rest
     MeshPlacement placement = MeshPlacement::area;  // see TwiHeader
     std::vector<float> channel_factors = {};        // step factor per channel
+
+    bool operator==(const DomainShape&) const = default;
 };
 
 // The shape a .twi header describes.
@@ -102,5 +105,16 @@ class CodingDomain {
     std::optional<RenderPlan> rest_plan_;   // area placement: rendering at rest
     CodingLayout layout_;
 };
+
+// The domain CodingDomain(shape, probes, norms) builds, from a small process-wide cache: the
+// last few domains are kept, so that coding with one mesh and size again (compare's rates, the
+// groups of a video, a benchmark) reuses the hierarchy, coding layout and render plan instead of
+// building them anew (for a mesh they are most of a decode). Entries are equal when shape, probe
+// count and norms are. Thread-safe; a domain is read-only, so one entry may serve many threads.
+std::shared_ptr<const CodingDomain> shared_domain(const DomainShape& shape, int probes,
+                                                  std::span<const float> norms = {});
+
+// Empties that cache (its memory is freed once no caller holds a domain).
+void clear_domain_cache();
 
 }  // namespace tesswave

@@ -287,8 +287,9 @@ StillResult compress_image(const Image& image, const StillOptions& o) {
     StillResult result;
     TwiHeader h = make_header(image, o);
     progress(o, 0.0, "preparing");
-    const CodingDomain domain(still_shape(h),
-                              o.lossless ? std::max(o.norm_probes, 1) : o.norm_probes);
+    const auto shared =
+        shared_domain(still_shape(h), o.lossless ? std::max(o.norm_probes, 1) : o.norm_probes);
+    const CodingDomain& domain = *shared;
     const CodingLayout& layout = domain.layout();
     for (const CodingBand& b : layout.bands) h.band_norms.push_back(static_cast<float>(b.norm));
     if (o.lossless) {
@@ -360,7 +361,8 @@ Image decompress_image(std::span<const uint8_t> file, const std::string& name,
         throw Error(str(name, ": ", options.max_bytes, " bytes do not hold the ", h.header_bytes,
                         "-byte header"));
     }
-    const CodingDomain domain(still_shape(h), 0, h.band_norms);
+    const auto shared = shared_domain(still_shape(h), 0, h.band_norms);
+    const CodingDomain& domain = *shared;
     file = file.first(std::min(file.size(), options.max_bytes));
     return reconstruct(domain, h, file.subspan(h.header_bytes));
 }
@@ -368,15 +370,15 @@ Image decompress_image(std::span<const uint8_t> file, const std::string& name,
 std::vector<std::vector<int32_t>> decode_lossless_samples(std::span<const uint8_t> file) {
     const TwiHeader h = read_twi_header(file, "lossless file");
     if (!h.lossless) throw Error("not a lossless file");
-    const CodingDomain domain(still_shape(h), 0, h.band_norms);
+    const auto shared = shared_domain(still_shape(h), 0, h.band_norms);
+    const CodingDomain& domain = *shared;
     const DecodedPlanes d = decode_bitplanes(domain.layout(), h.planes,
                                              file.subspan(h.header_bytes), {.shifts = h.shifts});
     return domain.inverse_int(integer_values(d));
 }
 
 std::vector<std::vector<int32_t>> lossless_samples(const Image& image, const TwiHeader& header) {
-    const CodingDomain domain(still_shape(header), 0, header.band_norms);
-    return domain.samples_int(image);
+    return shared_domain(still_shape(header), 0, header.band_norms)->samples_int(image);
 }
 
 }  // namespace tesswave

@@ -29,6 +29,8 @@ struct Mesh {
                 static_cast<size_t>(face_offsets[f + 1] - face_offsets[f])};
     }
     void add_face(std::span<const int32_t> corners);
+
+    bool operator==(const Mesh&) const = default;
 };
 
 // Signed area of a polygon by the shoelace formula; positive for the orientation every face of a
