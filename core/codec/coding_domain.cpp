@@ -160,14 +160,18 @@ GridTransformOptions CodingDomain::grid_options() const {
     return {.wavelet = wavelet_of(shape_.transform), .levels = shape_.levels};
 }
 
-void CodingDomain::sample_into(const Image& image, std::span<const Vec2> vertices, Planes& out,
-                               Sampling sampling, const ProjectOptions& projection) const {
+void CodingDomain::check_image(const Image& image) const {
     if (image.width != shape_.width || image.height != shape_.height ||
         image.channels() != shape_.channels) {
         throw Error(str("image is ", image.width, "x", image.height, " with ", image.channels(),
                         " channels; the coding domain is ", shape_.width, "x", shape_.height,
                         " with ", shape_.channels));
     }
+}
+
+void CodingDomain::sample_into(const Image& image, std::span<const Vec2> vertices, Planes& out,
+                               Sampling sampling, const ProjectOptions& projection) const {
+    check_image(image);
     out.resize(shape_.channels);
     if (!hierarchy_) {
         for (int c = 0; c < shape_.channels; ++c) out[c] = image.planes[c];
@@ -213,15 +217,39 @@ void CodingDomain::to_image(const Planes& samples, std::span<const Vec2> vertice
     }
 }
 
+void CodingDomain::transform(Planes& x) const {
+    if (shape_.colour == TwiColour::ycbcr) ycbcr_forward(x[0], x[1], x[2]);
+    if (hierarchy_) {
+        forward_transform(*hierarchy_, spans(x));
+    } else {
+        for (auto& plane : x) grid_forward(plane, shape_.width, shape_.height, grid_options());
+    }
+}
+
 void CodingDomain::analyze(const Image& image, std::span<const Vec2> vertices, Planes& out,
                            Sampling sampling, const ProjectOptions& projection) const {
     sample_into(image, vertices, out, sampling, projection);
-    if (shape_.colour == TwiColour::ycbcr) ycbcr_forward(out[0], out[1], out[2]);
-    if (hierarchy_) {
-        forward_transform(*hierarchy_, spans(out));
-    } else {
-        for (auto& plane : out) grid_forward(plane, shape_.width, shape_.height, grid_options());
+    transform(out);
+}
+
+void CodingDomain::analyze_fits(const Image& image, std::span<const double> smoothness,
+                                const ProjectOptions& projection,
+                                const std::function<void(size_t, Planes&)>& take) const {
+    check_image(image);
+    if (!hierarchy_ || !pixel_of_sample_.empty()) {  // nothing to project
+        for (size_t k = 0; k < smoothness.size(); ++k) {
+            Planes x;
+            analyze(image, {}, x);
+            take(k, x);
+        }
+        return;
     }
+    project_image_each(image, *hierarchy_, shape_.mesh.vertices, smoothness, projection,
+                       [&](size_t k, const Projection& p) {
+                           Planes x = p.planes;
+                           transform(x);
+                           take(k, x);
+                       });
 }
 
 Planes CodingDomain::analyze(const Image& image, Sampling sampling,

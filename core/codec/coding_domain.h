@@ -10,6 +10,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <span>
@@ -79,6 +80,12 @@ class CodingDomain {
                  Sampling sampling = Sampling::point, const ProjectOptions& projection = {}) const;
     Planes analyze(const Image& image, Sampling sampling = Sampling::point,
                    const ProjectOptions& projection = {}) const;
+    // Coefficients of `image` at rest, projected for each of `smoothness` in turn
+    // (project_image_each: one assembly, each solve starting from the one before), handed to
+    // `take`, which may consume them. Where samples are pixels, the pixels for each.
+    void analyze_fits(const Image& image, std::span<const double> smoothness,
+                      const ProjectOptions& projection,
+                      const std::function<void(size_t, Planes&)>& take) const;
     // The image of `coefficients` (consumed) on those vertex positions.
     void synthesize(Planes coefficients, std::span<const Vec2> vertices, Image& out) const;
     Image synthesize(Planes coefficients) const;
@@ -92,6 +99,8 @@ class CodingDomain {
     IntPlanes samples_int(const Image& image) const;
 
   private:
+    void check_image(const Image& image) const;
+    void transform(Planes& samples) const;  // colour transform and analysis
     void sample_into(const Image& image, std::span<const Vec2> vertices, Planes& out,
                      Sampling sampling = Sampling::point,
                      const ProjectOptions& projection = {}) const;

@@ -294,73 +294,110 @@ void check_options(const ProjectOptions& o) {
     }
 }
 
-}  // namespace
-
-Projection project_image(const Image& image, const Hierarchy& h,
-                         std::span<const Vec2> mesh_vertices, const ProjectOptions& o) {
-    check_options(o);
-    const int level = o.level < 0 ? h.finest() : o.level;
-    if (level < 1 || level > h.finest()) {
-        throw Error(str("projection: level ", level, " is outside 1..", h.finest()));
-    }
-    const int channels = image.channels();
-    const size_t samples = static_cast<size_t>(h.levels[level].n_vertices);
-    Projection result;
-    if (o.anchor.empty()) {
-        result.planes = sample_image(image, h, mesh_vertices, {.level = level});
-    } else {
-        if (o.anchor.size() != static_cast<size_t>(channels)) {
-            throw Error(
-                str("projection: ", o.anchor.size(), " anchor planes for ", channels, " channels"));
+// The projection's set-up, shared by the solves of several smoothness values: the anchor, the
+// render plan, the stencils with the data term, and the right-hand side.
+class Solver {
+  public:
+    Solver(const Image& image, const Hierarchy& h, std::span<const Vec2> mesh_vertices,
+           const ProjectOptions& o)
+        : o_(o) {
+        check_options(o);
+        const int level = o.level < 0 ? h.finest() : o.level;
+        if (level < 1 || level > h.finest()) {
+            throw Error(str("projection: level ", level, " is outside 1..", h.finest()));
         }
-        for (const auto& plane : o.anchor) {
-            if (plane.size() != samples) {
-                throw Error(str("projection: an anchor plane has ", plane.size(), " values, level ",
-                                level, " has ", samples, " samples"));
+        channels_ = image.channels();
+        samples_ = static_cast<size_t>(h.levels[level].n_vertices);
+        anchor_ = o.anchor.empty() ? sample_image(image, h, mesh_vertices, {.level = level})
+                                   : planes_of(o.anchor, "an anchor");
+        for (auto& plane : anchor_) {
+            for (float& v : plane) v = std::isfinite(v) ? v : 0.0f;
+        }
+        if (!o.start.empty()) start_ = planes_of(o.start, "a start");
+        if (o.max_iterations == 0 || samples_ == 0) return;
+
+        plan_ = plan_render(h, mesh_vertices, image.width, image.height, image.width, image.height,
+                            {.level = level});
+        A_.side = plan_.cells + 1;
+        A_.grid_size = A_.side * A_.side;
+        A_.quads = plan_.quad_runs.size() - 1;
+        A_.grid = plan_.grid.data();
+        A_.stencil.reset(new float[A_.quads * 9 * A_.grid_size]);  // zeroed by add_data_term
+        shared_ = find_shared(A_, samples_);
+        unit_ = static_cast<double>(image.width) * image.height / samples_;
+        A_.alpha = o.anchor_weight * unit_;
+        b_.assign(channels_, std::vector<float>(samples_, 0.0f));
+        add_data_term(plan_, image, shared_, A_, b_);
+        for (int c = 0; c < channels_; ++c) {
+            for (size_t k = 0; k < samples_; ++k)
+                b_[c][k] += static_cast<float>(A_.alpha) * anchor_[c][k];
+        }
+    }
+
+    // The starting samples: options.start, or the anchor.
+    Projection start() const { return {.planes = start_.empty() ? anchor_ : start_}; }
+
+    // Solves for `smoothness` from the samples in `x` (its planes), which it overwrites.
+    void solve(double smoothness, Projection& x);
+
+  private:
+    Planes planes_of(std::span<const std::span<const float>> given, const char* what) const {
+        if (given.size() != static_cast<size_t>(channels_)) {
+            throw Error(str("projection: ", given.size(), " planes in ", what, " for ", channels_,
+                            " channels"));
+        }
+        Planes out;
+        for (const auto& plane : given) {
+            if (plane.size() != samples_) {
+                throw Error(str("projection: ", what, " plane has ", plane.size(),
+                                " values, the level has ", samples_, " samples"));
             }
-            result.planes.emplace_back(plane.begin(), plane.end());
+            out.emplace_back(plane.begin(), plane.end());
         }
+        return out;
     }
-    for (auto& plane : result.planes) {
-        for (float& v : plane) v = std::isfinite(v) ? v : 0.0f;
-    }
-    Planes anchor = result.planes;
-    if (o.max_iterations == 0 || samples == 0) return result;
 
-    const RenderPlan plan = plan_render(h, mesh_vertices, image.width, image.height, image.width,
-                                        image.height, {.level = level});
-    NormalMatrix A;
-    A.side = plan.cells + 1;
-    A.grid_size = A.side * A.side;
-    A.quads = plan.quad_runs.size() - 1;
-    A.grid = plan.grid.data();
-    A.stencil.reset(new float[A.quads * 9 * A.grid_size]);  // zeroed per quad by add_data_term
-    const SharedNodes shared = find_shared(A, samples);
-    const double unit = static_cast<double>(image.width) * image.height / samples;
-    A.alpha = o.anchor_weight * unit;
-    Planes b(channels, std::vector<float>(samples, 0.0f));
-    add_data_term(plan, image, shared, A, b);
-    add_smoothness(A, static_cast<float>(o.smoothness * unit));
-    A.diagonal.assign(samples, A.alpha);
-    for (size_t q = 0; q < A.quads; ++q) {
-        for (int32_t k = 0; k < A.grid_size; ++k) {
-            A.diagonal[A.grid[q * A.grid_size + k]] += A.entry(q, stencil_entry(0, 0))[k];
+    ProjectOptions o_;
+    int channels_ = 0;
+    size_t samples_ = 0;
+    Planes anchor_, start_, b_;
+    RenderPlan plan_;
+    NormalMatrix A_;
+    SharedNodes shared_;
+    double unit_ = 0;
+    double smoothness_ = 0;  // what the stencils hold
+};
+
+void Solver::solve(double smoothness, Projection& result) {
+    result.iterations = 0;
+    result.residual = 0;
+    if (!(smoothness >= 0 && smoothness <= 1e6)) {
+        throw Error(str("projection: smoothness ", smoothness, " is not in [0, 10^6]"));
+    }
+    if (o_.max_iterations == 0 || samples_ == 0) return;
+    // The stencils move from the smoothness they hold to this one.
+    add_smoothness(A_, static_cast<float>((smoothness - smoothness_) * unit_));
+    smoothness_ = smoothness;
+    A_.diagonal.assign(samples_, A_.alpha);
+    for (size_t q = 0; q < A_.quads; ++q) {
+        for (int32_t k = 0; k < A_.grid_size; ++k) {
+            A_.diagonal[A_.grid[q * A_.grid_size + k]] += A_.entry(q, stencil_entry(0, 0))[k];
         }
     }
-    for (int c = 0; c < channels; ++c) {
-        for (size_t k = 0; k < samples; ++k) b[c][k] += static_cast<float>(A.alpha) * anchor[c][k];
-    }
+    const int channels = channels_;
+    const size_t samples = samples_;
+    const Planes& b = b_;
 
     // Preconditioned conjugate gradients, all channels through one pass over the stencils. The
     // preconditioned residual z = r / diagonal is never stored: r.z and p = z + beta p read r.
     std::vector<float> inverse(samples);
-    for (size_t k = 0; k < samples; ++k) inverse[k] = static_cast<float>(1.0 / A.diagonal[k]);
+    for (size_t k = 0; k < samples; ++k) inverse[k] = static_cast<float>(1.0 / A_.diagonal[k]);
     Planes& x = result.planes;
     Planes r(channels, std::vector<float>(samples)), p = r, Ap = r;
     std::vector<int> all(channels);
     for (int c = 0; c < channels; ++c) all[c] = c;
     std::vector<float> products;
-    multiply(A, shared, x, Ap, all, products);
+    multiply(A_, shared_, x, Ap, all, products);
     std::vector<double> rz(channels), norm_b(channels);
     std::vector<int> active;
     for (int c = 0; c < channels; ++c) {
@@ -374,11 +411,11 @@ Projection project_image(const Image& image, const Hierarchy& h,
         norm_b[c] = std::sqrt(dot(b[c], b[c]));
         const double relative = norm_b[c] > 0 ? std::sqrt(rr) / norm_b[c] : 0.0;
         result.residual = std::max(result.residual, relative);
-        if (relative > o.tolerance) active.push_back(c);
+        if (relative > o_.tolerance) active.push_back(c);
     }
-    while (!active.empty() && result.iterations < o.max_iterations) {
+    while (!active.empty() && result.iterations < o_.max_iterations) {
         ++result.iterations;
-        multiply(A, shared, p, Ap, active, products);
+        multiply(A_, shared_, p, Ap, active, products);
         // Each channel's step on its own (the channels shared among the cores).
         const size_t n = active.size();
         std::vector<double> relative(n, -1.0);
@@ -403,11 +440,31 @@ Projection project_image(const Image& image, const Hierarchy& h,
         for (size_t a = 0; a < n; ++a) {
             if (relative[a] < 0) continue;
             result.residual = std::max(result.residual, relative[a]);
-            if (relative[a] > o.tolerance) still.push_back(active[a]);
+            if (relative[a] > o_.tolerance) still.push_back(active[a]);
         }
         active = std::move(still);
     }
+}
+
+}  // namespace
+
+Projection project_image(const Image& image, const Hierarchy& h,
+                         std::span<const Vec2> mesh_vertices, const ProjectOptions& o) {
+    Solver solver(image, h, mesh_vertices, o);
+    Projection result = solver.start();
+    solver.solve(o.smoothness, result);
     return result;
+}
+
+void project_image_each(const Image& image, const Hierarchy& h, std::span<const Vec2> mesh_vertices,
+                        std::span<const double> smoothness, const ProjectOptions& o,
+                        const std::function<void(size_t, const Projection&)>& take) {
+    Solver solver(image, h, mesh_vertices, o);
+    Projection result = solver.start();
+    for (size_t k = 0; k < smoothness.size(); ++k) {
+        solver.solve(smoothness[k], result);
+        take(k, result);
+    }
 }
 
 Sampling sampling_from_name(std::string_view name) {
