@@ -102,6 +102,41 @@ TEST(Project, smoothness_shrinks_the_finest_band) {
     EXPECT_LT(finest_energy(0.03), 0.7 * finest_energy(0.0));
 }
 
+// Several smoothness values from one assembly: the first is project_image's to the bit; each
+// later one, started from the one before, solves its own system (residual within the tolerance)
+// and renders as project_image's does.
+TEST(Project, each_smoothness_from_one_assembly_matches_a_call_per_value) {
+    const Image image = samples::scene_image(160, 120, 3);
+    const Mesh mesh = grid_mesh(160, 120, 10, 8);
+    const Hierarchy h = build_hierarchy(mesh, {.levels = 4});
+    const std::vector<double> betas = {0.03, 0.01, 0.0};
+    const ProjectOptions options{.max_iterations = 200};
+    std::vector<Projection> each;
+    project_image_each(image, h, mesh.vertices, betas, options, [&](size_t k, const Projection& p) {
+        EXPECT_EQ(k, each.size());
+        each.push_back(p);
+    });
+    ASSERT_EQ(each.size(), betas.size());
+    int each_total = 0, alone_total = 0;
+    for (size_t k = 0; k < betas.size(); ++k) {
+        ProjectOptions one = options;
+        one.smoothness = betas[k];
+        const Projection alone = project_image(image, h, mesh.vertices, one);
+        if (k == 0) {
+            EXPECT_EQ(each[k].planes, alone.planes);
+        }
+        EXPECT_LE(each[k].residual, options.tolerance) << "smoothness " << betas[k];
+        EXPECT_LT(each[k].iterations, options.max_iterations);
+        const double a = round_trip(image, h, mesh, alone.planes);
+        const double e = round_trip(image, h, mesh, each[k].planes);
+        EXPECT_NEAR(e, a, 0.05) << "smoothness " << betas[k];
+        each_total += each[k].iterations;
+        alone_total += alone.iterations;
+    }
+    // Later solves start close: fewer iterations in all than solves from the point samples.
+    EXPECT_LT(each_total, alone_total);
+}
+
 // Alpha is a channel like the others; each channel is fitted on its own, whatever the others.
 TEST(Project, any_number_of_channels) {
     const Mesh mesh = grid_mesh(64, 48, 4, 3);

@@ -313,7 +313,6 @@ class Solver {
         for (auto& plane : anchor_) {
             for (float& v : plane) v = std::isfinite(v) ? v : 0.0f;
         }
-        if (!o.start.empty()) start_ = planes_of(o.start, "a start");
         if (o.max_iterations == 0 || samples_ == 0) return;
 
         plan_ = plan_render(h, mesh_vertices, image.width, image.height, image.width, image.height,
@@ -334,8 +333,8 @@ class Solver {
         }
     }
 
-    // The starting samples: options.start, or the anchor.
-    Projection start() const { return {.planes = start_.empty() ? anchor_ : start_}; }
+    // The starting samples: the anchor.
+    Projection start() const { return {.planes = anchor_}; }
 
     // Solves for `smoothness` from the samples in `x` (its planes), which it overwrites.
     void solve(double smoothness, Projection& x);
@@ -360,7 +359,7 @@ class Solver {
     ProjectOptions o_;
     int channels_ = 0;
     size_t samples_ = 0;
-    Planes anchor_, start_, b_;
+    Planes anchor_, b_;
     RenderPlan plan_;
     NormalMatrix A_;
     SharedNodes shared_;

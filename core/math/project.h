@@ -14,10 +14,10 @@
 // pixels (samples no pixel reads stay at the anchor); beta damps the finest bands, where an
 // unregularized fit sharpens (it undoes the renderer's bilinear blur) and puts energy a coder has
 // to pay for. The normal equations (R^T M R + alpha u I + beta u L) s = R^T M I + alpha u a are
-// solved by conjugate gradients with a Jacobi preconditioner, warm-started from the anchor (or a
-// given start); R^T R is assembled once per call as a 3x3 stencil per node of each quad's grid.
-// Memory: about 100 bytes a sample (stencils and five vectors of three channels) plus the render
-// plan's 9 bytes a pixel, on top of the hierarchy; its 50-million-sample limit bounds both.
+// solved by conjugate gradients with a Jacobi preconditioner, warm-started from the anchor; R^T R
+// is assembled once per call as a 3x3 stencil per node of each quad's grid. Memory: about 100 bytes
+// a sample (stencils and five vectors of three channels) plus the render plan's 9 bytes a pixel, on
+// top of the hierarchy; its 50-million-sample limit bounds both.
 #pragma once
 
 #include <cstdint>
@@ -40,9 +40,6 @@ struct ProjectOptions {
     double tolerance = 1e-4;      // stop when each channel's residual is this part of its b
     // One plane per channel (the level's sample count each); empty: the prefiltered point samples.
     std::span<const std::span<const float>> anchor = {};
-    // Where conjugate gradients start, in the same shape (a video frame's previous projection
-    // carried by the moving mesh); empty: the anchor.
-    std::span<const std::span<const float>> start = {};
 };
 
 struct Projection {
@@ -52,7 +49,7 @@ struct Projection {
 };
 
 // The mesh domain is taken to be the image's pixel rectangle, as in sample_image. Throws Error
-// for a level out of range, bad options or an anchor or start of the wrong size.
+// for a level out of range, bad options or an anchor of the wrong size.
 Projection project_image(const Image& image, const Hierarchy& hierarchy,
                          std::span<const Vec2> mesh_vertices, const ProjectOptions& options = {});
 
