@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <condition_variable>
 #include <exception>
 #include <mutex>
 #include <thread>
@@ -18,6 +19,86 @@ std::atomic<int>& configured() {
 }
 
 thread_local int serial_depth = 0;
+
+// Worker threads that live as long as the process and run the pieces of one parallel_for at a
+// time: a call costs a wake-up, not a thread's creation. The caller takes pieces too, so that a
+// call with p pieces keeps p threads busy. A second caller that finds the pool busy (another
+// thread of the program) runs its pieces itself: kernels give the same result on any split.
+class Pool {
+  public:
+    // Runs piece(p) for p in [0, pieces); true if the pool took the job, false if it was busy.
+    bool run(int64_t pieces, const std::function<void(int64_t)>& piece) {
+        std::unique_lock job(job_mutex_, std::try_to_lock);
+        if (!job.owns_lock()) return false;
+        grow(static_cast<int>(pieces) - 1);
+        {
+            const std::lock_guard lock(mutex_);
+            piece_ = &piece;
+            pieces_ = pieces;
+            next_.store(0);
+            finished_ = 0;
+            ++generation_;
+        }
+        wake_.notify_all();
+        const int64_t mine = take();
+        std::unique_lock lock(mutex_);
+        finished_ += mine;
+        done_.wait(lock, [&] { return finished_ == pieces_; });
+        piece_ = nullptr;
+        return true;
+    }
+
+  private:
+    // Runs pieces until none is left; returns how many it ran.
+    int64_t take() {
+        int64_t ran = 0;
+        for (int64_t p = next_.fetch_add(1); p < pieces_; p = next_.fetch_add(1)) {
+            (*piece_.load())(p);
+            ++ran;
+        }
+        return ran;
+    }
+
+    void grow(int workers) {
+        while (static_cast<int>(workers_) < workers) {
+            std::thread([this] { work(); }).detach();  // the pool outlives every caller
+            ++workers_;
+        }
+    }
+
+    void work() {
+        serial_depth = 1;  // a piece's own parallel_for calls run on the worker
+        uint64_t seen = 0;
+        for (;;) {
+            {
+                std::unique_lock lock(mutex_);
+                wake_.wait(lock, [&] { return generation_ != seen && piece_ != nullptr; });
+                seen = generation_;
+            }
+            const int64_t ran = take();
+            if (ran == 0) continue;
+            const std::lock_guard lock(mutex_);
+            finished_ += ran;
+            if (finished_ == pieces_) done_.notify_all();
+        }
+    }
+
+    std::mutex job_mutex_;  // one job at a time
+    std::mutex mutex_;
+    std::condition_variable wake_, done_;
+    // Atomic: a worker that woke for a job that has ended may read them as the next job starts.
+    std::atomic<const std::function<void(int64_t)>*> piece_{nullptr};
+    std::atomic<int64_t> pieces_{0};
+    std::atomic<int64_t> next_{0};
+    int64_t finished_ = 0;
+    uint64_t generation_ = 0;
+    size_t workers_ = 0;  // guarded by job_mutex_
+};
+
+Pool& pool() {
+    static Pool* p = new Pool;  // never destroyed: its detached workers wait on it until exit
+    return *p;
+}
 
 }  // namespace
 
@@ -43,20 +124,18 @@ void parallel_for(int64_t n, const std::function<void(int64_t, int64_t)>& f, int
     }
     std::exception_ptr failure;
     std::mutex mutex;
-    auto run = [&](int64_t p) {
+    const std::function<void(int64_t)> piece = [&](int64_t p) {
         const SerialScope no_nesting;
         try {
             f(n * p / pieces, n * (p + 1) / pieces);
         } catch (...) {
-            std::lock_guard<std::mutex> lock(mutex);
+            const std::lock_guard<std::mutex> lock(mutex);
             if (!failure) failure = std::current_exception();
         }
     };
-    std::vector<std::thread> threads;
-    threads.reserve(pieces - 1);
-    for (int64_t p = 1; p < pieces; ++p) threads.emplace_back(run, p);
-    run(0);
-    for (std::thread& t : threads) t.join();
+    if (!pool().run(pieces, piece)) {
+        for (int64_t p = 0; p < pieces; ++p) piece(p);
+    }
     if (failure) std::rethrow_exception(failure);
 }
 
