@@ -93,8 +93,8 @@ Morph::Morph(const Image& a, const Image& b, const Mesh& mesh_a, const Mesh& mes
     topology_.vertices = va_;
     const int J = morph_levels(mesh_a, width_, height_, options);
     report(options.progress, 0.0, "hierarchy");
-    hierarchy_ = build_hierarchy(topology_, {.levels = J});
-    preview_ = build_hierarchy(topology_, {.levels = std::max(1, J - 2)});
+    hierarchy_ = build_hierarchy(topology_, {.levels = J, .finest_topology = false});
+    preview_ = build_hierarchy(topology_, {.levels = std::max(1, J - 2), .finest_topology = false});
     const int channels = (a.channels() == 4 && b.channels() == 4) ? 4 : 3;
     report(options.progress, 0.2, "sampling");
     samples_a_ =

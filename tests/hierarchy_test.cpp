@@ -3,6 +3,11 @@
 #include <gtest/gtest.h>
 
 #include "core/math/error.h"
+#include "core/math/lifting.h"
+#include "core/math/render.h"
+#include "core/math/sampling.h"
+#include "core/math/voronoi.h"
+#include "samples/sample_images.h"
 #include "samples/sample_meshes.h"
 #include "test_meshes.h"
 
@@ -130,6 +135,34 @@ TEST(Hierarchy, rejects_invalid_meshes) {
     Mesh mesh = samples::paper_t0(100, 80);
     mesh.vertices[6] = {60, 60};  // folds faces around vertex 6
     EXPECT_THROW(build_hierarchy(mesh, {.levels = 2}), Error);
+}
+
+// Without finest_topology, T_J keeps what sampling, rendering and the transform read, and they
+// give the same values to the bit as on the full hierarchy; T_J's edges, faces and stars are gone.
+TEST(Hierarchy, a_light_finest_level_serves_sampling_rendering_and_the_transform_alike) {
+    const Mesh mesh = voronoi_mesh(96, 64, {.sites = 12, .seed = 3});
+    const Hierarchy full = build_hierarchy(mesh, {.levels = 4});
+    const Hierarchy light = build_hierarchy(mesh, {.levels = 4, .finest_topology = false});
+    ASSERT_EQ(light.finest(), 4);
+    EXPECT_FALSE(light.levels[4].topology);
+    EXPECT_EQ(light.levels[4].num_edges(), 0);
+    EXPECT_TRUE(light.levels[4].star_e.empty());
+    EXPECT_GT(full.levels[4].num_edges(), 0);
+    for (int j = 0; j < 4; ++j) EXPECT_TRUE(light.levels[j].topology) << j;
+    EXPECT_EQ(light.levels[4].n_vertices, full.levels[4].n_vertices);
+    EXPECT_EQ(light.levels[4].patch_grid, full.levels[4].patch_grid);
+
+    const Image image = samples::scene_image(96, 64, 3);
+    auto run = [&](const Hierarchy& h) {
+        std::vector<std::vector<float>> x = sample_image(image, h, mesh.vertices);
+        std::vector<std::span<float>> s(x.begin(), x.end());
+        forward_transform(h, s);
+        inverse_transform(h, s);
+        const std::vector<std::span<const float>> in(x.begin(), x.end());
+        const Image back = render(plan_render(h, mesh.vertices, 96, 64, 96, 64), in);
+        return std::make_pair(x, back.planes);
+    };
+    EXPECT_EQ(run(light), run(full));
 }
 
 }  // namespace

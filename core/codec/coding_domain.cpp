@@ -46,7 +46,7 @@ CodingDomain::CodingDomain(DomainShape shape, int probes, std::span<const float>
     if (s.transform != TwiTransform::mesh) {
         layout_ = grid_layout(s.width, s.height, s.levels, wavelet_of(s.transform), probes > 0);
     } else {
-        hierarchy_ = build_hierarchy(s.mesh, {.levels = s.levels});
+        hierarchy_ = build_hierarchy(s.mesh, {.levels = s.levels, .finest_topology = false});
         layout_ = mesh_layout(*hierarchy_, s.mesh.width * s.mesh.height, probes);
         if (s.placement == MeshPlacement::centres) {
             // Sample (x, y) is pixel (x, y); past the last column or row it repeats the edge pixel.

@@ -80,7 +80,7 @@ AnalysisResult analyze_image(const Image& image, const Mesh& mesh, const Analysi
     AnalysisResult result;
     result.levels = options.levels;
     progress(0.0, "refining");
-    const Hierarchy h = build_hierarchy(mesh, {.levels = options.levels});
+    const Hierarchy h = build_hierarchy(mesh, {.levels = options.levels, .finest_topology = false});
     const int32_t n = h.num_samples(options.levels), n0 = h.num_samples(0);
     result.samples = n;
     result.samples_per_pixel = static_cast<double>(n) / (int64_t{image.width} * image.height);

@@ -298,10 +298,13 @@ Hierarchy build_hierarchy(const Mesh& mesh, const HierarchyOptions& options) {
         const detail::PatchSides sides = detail::patch_sides(h.levels[1]);
         detail::init_patch_grids(h.levels[1], sides);
         for (int j = 1; j < options.levels; ++j) {
-            h.levels.push_back(detail::refine_patches(h.levels.back(), sides));
+            const bool topology = options.finest_topology || j + 1 < options.levels;
+            h.levels.push_back(detail::refine_patches(h.levels.back(), sides, topology));
         }
     }
-    for (auto& level : h.levels) build_stars(level);
+    for (auto& level : h.levels) {
+        if (level.topology) build_stars(level);
+    }
     return h;
 }
 

@@ -56,6 +56,10 @@ struct LevelTopology {
     HugeVector<int32_t> skeleton;     // per T1 edge, its m+1 vertex ids from its first endpoint
     HugeVector<char> patch_interior;  // per vertex: strictly inside a patch, off the skeleton
 
+    // False on the finest level of a hierarchy built without finest_topology: only n_vertices,
+    // kind, patch_cells, patch_grid and skeleton are filled (what sampling and rendering read).
+    bool topology = true;
+
     int32_t num_edges() const { return static_cast<int32_t>(edge_v.size()); }
     int32_t num_faces() const { return static_cast<int32_t>(face_offsets.size()) - 1; }
     int32_t n_next() const { return n_vertices + num_edges() + num_faces(); }
@@ -69,6 +73,10 @@ struct LevelCounts {
 struct HierarchyOptions {
     int levels = 5;                    // J
     int64_t max_samples = 50'000'000;  // ~9 GiB of tables; larger ones are refused up front
+    // False: T_J (J >= 2) gets no edges, faces or stars. The transform, sampling, projection,
+    // rendering and the coding layout never read them, and they are three quarters of the
+    // hierarchy's memory and build time; drawing T_J's edges or checking its faces needs them.
+    bool finest_topology = true;
 };
 
 struct Hierarchy {

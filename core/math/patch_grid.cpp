@@ -92,7 +92,7 @@ void topology_from_grids(LevelTopology& t, const PatchSides& ps) {
 
 }  // namespace
 
-LevelTopology refine_patches(const LevelTopology& t, const PatchSides& ps) {
+LevelTopology refine_patches(const LevelTopology& t, const PatchSides& ps, bool topology) {
     const int32_t m = t.patch_cells, M = 2 * m, P = static_cast<int32_t>(ps.sides.size());
     const int32_t n = t.n_vertices, E = t.num_edges();
     LevelTopology next;
@@ -126,6 +126,8 @@ LevelTopology refine_patches(const LevelTopology& t, const PatchSides& ps) {
             }
         }
     }
+    next.topology = topology;
+    if (!topology) return next;
     next.patch_interior.assign(next.n_vertices, 0);
     topology_from_grids(next, ps);
     return next;

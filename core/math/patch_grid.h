@@ -45,7 +45,8 @@ inline int32_t vertical_edge(const PatchSides& ps, int32_t p, int32_t r, int32_t
 // Sets up the grids of T1 (m = 1) from its topology, which already has the patch numbering.
 void init_patch_grids(LevelTopology& t1, const PatchSides& ps);
 
-// T_j -> T_{j+1} for j >= 1, numbered by patch grids.
-LevelTopology refine_patches(const LevelTopology& t, const PatchSides& ps);
+// T_j -> T_{j+1} for j >= 1, numbered by patch grids; without `topology`, only the counts,
+// kinds, skeleton and patch grids (LevelTopology::topology false).
+LevelTopology refine_patches(const LevelTopology& t, const PatchSides& ps, bool topology = true);
 
 }  // namespace tesswave::detail

@@ -30,6 +30,7 @@
 #include "core/codec/still_codec.h"
 #include "core/eval/peer_jpeg2000.h"
 #include "core/math/metrics.h"
+#include "core/math/parallel.h"
 #include "core/math/strings.h"
 #include "samples/sample_images.h"
 
@@ -70,6 +71,7 @@ void finish(benchmark::State& state, size_t bytes, double psnr) {
     state.counters["PSNR"] = psnr;
 }
 
+// `/2threads` rows run with two threads and are timed on the wall clock; the others on one.
 // Cold rows empty the domain cache before each call, so that every call builds its hierarchy,
 // layout and render plan, as a single command does; warm rows reuse them, as compare, a video
 // group or a second call in one process does.
@@ -80,7 +82,16 @@ void forget_domains(benchmark::State& state, bool cold) {
     state.ResumeTiming();
 }
 
-void BM_Codec_encode(benchmark::State& state, Coder coder, double bpp, bool cold) {
+// Sets the thread count for a row and back to the binary's single thread when the row ends.
+struct RowThreads {
+    explicit RowThreads(int threads) { set_thread_count(threads); }
+    ~RowThreads() { set_thread_count(1); }
+    RowThreads(const RowThreads&) = delete;
+    RowThreads& operator=(const RowThreads&) = delete;
+};
+
+void BM_Codec_encode(benchmark::State& state, Coder coder, double bpp, bool cold, int threads) {
+    const RowThreads row(threads);
     const Image& image = scene();
     if (coder == Coder::jpeg2000) {
         std::vector<uint8_t> bytes;
@@ -105,7 +116,8 @@ void BM_Codec_encode(benchmark::State& state, Coder coder, double bpp, bool cold
     finish(state, r.file.size(), psnr(image, decompress_image(r.file, "bench")).all);
 }
 
-void BM_Codec_decode(benchmark::State& state, Coder coder, double bpp, bool cold) {
+void BM_Codec_decode(benchmark::State& state, Coder coder, double bpp, bool cold, int threads) {
+    const RowThreads row(threads);
     const Image& image = scene();
     const std::vector<uint8_t> bytes = coder == Coder::jpeg2000
                                            ? encode_jpeg2000(image, {.target_bytes = budget(bpp)})
@@ -138,17 +150,22 @@ void BM_Codec_decode(benchmark::State& state, Coder coder, double bpp, bool cold
     for (const auto& [bpp, rate] : rates) {
         for (const bool encode : {true, false}) {
             for (const Entry& e : bpp == 0 ? std::span<const Entry>(lossless) : lossy) {
-                // Cold rows for the two lossy paths of our codec at 0.5 bpp.
-                const bool with_cold =
+                // Cold and two-thread rows for the two lossy paths of our codec at 0.5 bpp.
+                const bool more =
                     bpp == 0.5 && (e.coder == Coder::mesh || e.coder == Coder::grid97);
                 for (const bool cold : {false, true}) {
-                    if (cold && !with_cold) continue;
-                    const std::string name = str(encode ? "BM_Codec_encode" : "BM_Codec_decode",
-                                                 cold ? "_cold/" : "/", e.name, "/", rate);
-                    auto* b = benchmark::RegisterBenchmark(
-                        name.c_str(), encode ? BM_Codec_encode : BM_Codec_decode, e.coder, bpp,
-                        cold);
-                    b->Unit(benchmark::kMillisecond);
+                    for (const int threads : {1, 2}) {
+                        if ((cold || threads == 2) && !more) continue;
+                        const std::string name = str(encode ? "BM_Codec_encode" : "BM_Codec_decode",
+                                                     cold ? "_cold/" : "/", e.name, "/", rate,
+                                                     threads == 2 ? "/2threads" : "");
+                        auto* b = benchmark::RegisterBenchmark(
+                            name.c_str(), encode ? BM_Codec_encode : BM_Codec_decode, e.coder, bpp,
+                            cold, threads);
+                        b->Unit(benchmark::kMillisecond);
+                        // Two threads: wall time (the CPU column is the calling thread's alone).
+                        if (threads == 2) b->UseRealTime();
+                    }
                 }
             }
         }
