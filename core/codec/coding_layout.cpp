@@ -25,13 +25,6 @@ void close_lists(CodingLayout& layout) {
     }
 }
 
-void start_entry(CodingLayout& layout, int32_t id) {
-    layout.order.push_back(id);
-    layout.nb_primary.push_back(0);
-    layout.nb_offsets.push_back(static_cast<int32_t>(layout.nb.size()));
-    layout.pa_offsets.push_back(static_cast<int32_t>(layout.pa.size()));
-}
-
 }  // namespace
 
 CodingLayout mesh_layout(const Hierarchy& h, double domain_area, int probes) {
@@ -39,47 +32,83 @@ CodingLayout mesh_layout(const Hierarchy& h, double domain_area, int probes) {
     const int32_t n = h.num_samples(J), n0 = h.num_samples(0);
     CodingLayout layout;
     layout.size = n;
-    layout.order.reserve(n);
     std::vector<double> scratch;
     auto norm = [&](int32_t begin, int32_t end) {
         return impulse_norm(h, begin, end, domain_area, probes, scratch);
     };
+    // The lists are filled through cursors into arrays sized from above: an edge point of a face
+    // with k corners lists at most the opposite edge, the face and its k - 1 other edges; a face
+    // point its k neighbours and k edges. Parents: two an edge, k a face.
+    size_t nb_bound = 0, pa_bound = 0;
+    for (int j = 0; j < J; ++j) {
+        const LevelTopology& t = h.levels[j];
+        for (int32_t f = 0; f < t.num_faces(); ++f) {
+            const size_t k = static_cast<size_t>(t.face_offsets[f + 1] - t.face_offsets[f]);
+            nb_bound += k * (k + 1) + 2 * k;
+            pa_bound += k;
+        }
+        pa_bound += 2 * static_cast<size_t>(t.num_edges());
+    }
+    layout.order.resize(n);
+    layout.nb_primary.assign(n, 0);
+    layout.nb_offsets.resize(n);
+    layout.pa_offsets.resize(n);
+    layout.nb.resize(nb_bound);
+    layout.pa.resize(pa_bound);
+    int32_t* order = layout.order.data();
+    uint8_t* primary = layout.nb_primary.data();
+    int32_t* nb_offsets = layout.nb_offsets.data();
+    int32_t* pa_offsets = layout.pa_offsets.data();
+    int32_t* nb = layout.nb.data();
+    int32_t* pa = layout.pa.data();
+    int32_t k = 0, nbn = 0, pan = 0;
+    auto start = [&](int32_t id) {
+        order[k] = id;
+        nb_offsets[k] = nbn;
+        pa_offsets[k] = pan;
+        return k++;
+    };
+    auto parent = [&](int32_t id) {
+        if (id >= n0) pa[pan++] = id;
+    };
 
     layout.bands.push_back({-1, 'v', 0, n0, norm(0, n0)});
-    for (int32_t i = 0; i < n0; ++i) start_entry(layout, i);
-    auto parent = [&](int32_t id) {
-        if (id >= n0) layout.pa.push_back(id);
-    };
+    for (int32_t i = 0; i < n0; ++i) start(i);
     for (int j = 0; j < J; ++j) {
         const LevelTopology& t = h.levels[j];
         const int32_t e0 = t.n_vertices, f0 = e0 + t.num_edges(), f1 = t.n_next();
         // Edge points.
         layout.bands.push_back({j, 'e', e0, f0, norm(e0, f0)});
         for (int32_t e = 0; e < t.num_edges(); ++e) {
-            start_entry(layout, e0 + e);
+            const int32_t at = start(e0 + e);
             // Primary: the opposite edge in each face with an even number of corners (on a
             // grid, the EBCOT neighbours across the edge's own direction).
-            auto opposite = [&](int32_t f) {
-                const int32_t begin = t.face_offsets[f], k = t.face_offsets[f + 1] - begin;
-                if (k % 2) return -1;
-                for (int32_t c = 0; c < k; ++c) {
-                    if (t.face_e[begin + c] == e) return t.face_e[begin + (c + k / 2) % k];
-                }
-                return -1;
-            };
-            for (int32_t f : t.edge_f[e]) {
-                if (f >= 0 && opposite(f) >= 0) {
-                    layout.nb.push_back(e0 + opposite(f));
-                    ++layout.nb_primary.back();
+            int32_t opposite[2] = {-1, -1};
+            for (int s = 0; s < 2; ++s) {
+                const int32_t f = t.edge_f[e][s];
+                if (f < 0) continue;
+                const int32_t begin = t.face_offsets[f], corners = t.face_offsets[f + 1] - begin;
+                if (corners % 2) continue;
+                for (int32_t c = 0; c < corners; ++c) {
+                    if (t.face_e[begin + c] == e) {
+                        opposite[s] = t.face_e[begin + (c + corners / 2) % corners];
+                        break;
+                    }
                 }
             }
-            for (int32_t f : t.edge_f[e]) {
+            for (int s = 0; s < 2; ++s) {
+                if (t.edge_f[e][s] >= 0 && opposite[s] >= 0) {
+                    nb[nbn++] = e0 + opposite[s];
+                    ++primary[at];
+                }
+            }
+            for (int s = 0; s < 2; ++s) {
+                const int32_t f = t.edge_f[e][s];
                 if (f < 0) continue;
-                layout.nb.push_back(f0 + f);
-                const int32_t opp = opposite(f);
+                nb[nbn++] = f0 + f;
                 for (int32_t c = t.face_offsets[f]; c < t.face_offsets[f + 1]; ++c) {
-                    if (t.face_e[c] != e && t.face_e[c] != opp)
-                        layout.nb.push_back(e0 + t.face_e[c]);
+                    if (t.face_e[c] != e && t.face_e[c] != opposite[s])
+                        nb[nbn++] = e0 + t.face_e[c];
                 }
             }
             parent(t.edge_v[e][0]);
@@ -88,22 +117,24 @@ CodingLayout mesh_layout(const Hierarchy& h, double domain_area, int probes) {
         // Face points.
         layout.bands.push_back({j, 'f', f0, f1, norm(f0, f1)});
         for (int32_t f = 0; f < t.num_faces(); ++f) {
-            start_entry(layout, f0 + f);
+            const int32_t at = start(f0 + f);
             // Primary: the faces across its edges; then its edge points.
             for (int32_t c = t.face_offsets[f]; c < t.face_offsets[f + 1]; ++c) {
                 const auto& ef = t.edge_f[t.face_e[c]];
                 const int32_t other = ef[0] == f ? ef[1] : ef[0];
                 if (other >= 0) {
-                    layout.nb.push_back(f0 + other);
-                    ++layout.nb_primary.back();
+                    nb[nbn++] = f0 + other;
+                    ++primary[at];
                 }
             }
             for (int32_t c = t.face_offsets[f]; c < t.face_offsets[f + 1]; ++c) {
-                layout.nb.push_back(e0 + t.face_e[c]);
+                nb[nbn++] = e0 + t.face_e[c];
                 parent(t.face_v[c]);
             }
         }
     }
+    layout.nb.resize(static_cast<size_t>(nbn));
+    layout.pa.resize(static_cast<size_t>(pan));
     close_lists(layout);
     // Bands hold positions in `order`; for the mesh these equal the coefficient ids.
     return layout;
