@@ -385,6 +385,24 @@ TEST(TwvRobustness, TheEncoderRefusesAFileTooSmallForItsDecodingWork) {
     EXPECT_FALSE(fs::exists(path));
 }
 
+// A short clip at a low rate is not refused for its group's memory: 24 textured 640x480 frames
+// in one lifted group (88 MB of coefficients) at 8 kbit/s (about 1 KB) are written and decode.
+TEST(TwvRobustness, AShortClipAtALowRateIsWrittenAndDecodes) {
+    const std::string path = temp_path("short.twv");
+    const samples::SampleClipOptions o{.width = 640, .height = 480, .frames = 24, .pan = {2, 1}};
+    VideoEncoder encoder(path, o.width, o.height, 25,
+                         {.transform = TwiTransform::grid53, .group = 24, .kbps = 8});
+    for (int t = 0; t < o.frames; ++t) encoder.encode(samples::sample_clip_frame(o, t));
+    ASSERT_NO_THROW(encoder.finish());
+    VideoDecoder decoder(path);
+    Image frame;
+    int frames = 0;
+    while (decoder.read(frame, false)) ++frames;
+    EXPECT_EQ(frames, o.frames) << decoder.damage();
+    EXPECT_TRUE(decoder.damage().empty()) << decoder.damage();
+    fs::remove(path);
+}
+
 TEST(TwvRobustness, SkimmingSeesTheFramesThatDecodingSees) {
     const std::string path = temp_path("skim.twv");
     for (bool low_delay : {true, false}) {

@@ -97,11 +97,14 @@ struct TwvLimits {
     // What decoding a file may cost, weighed against its bytes as the frame size is: the frames
     // decoded may total free_work_pixels pixels and work_pixels_per_byte more for each byte of the
     // file; a lifted group's coefficients may take free_group_bytes, and group_bytes_per_byte more
-    // for each byte of the file (a 1 KB file: about 12 M pixels, 68 MiB).
+    // for each byte of the file (a 1 KB file: about 12 M pixels, 96 MiB). A group's coefficients
+    // take about 96 d / b bytes for each byte of the file at density d and b bits a pixel: 9600
+    // at 0.02 bpp on density 2, where 4096 refused short clips at low rates (16 frames of Big
+    // Buck Bunny at 150 kbit/s).
     int64_t free_work_pixels = int64_t{1} << 23;
     int64_t work_pixels_per_byte = 4096;
     int64_t free_group_bytes = int64_t{64} << 20;
-    int64_t group_bytes_per_byte = 4096;
+    int64_t group_bytes_per_byte = 32768;
 };
 
 // The frame pixels, and the bytes of one lifted group's coefficients, that decoding a file of
