@@ -203,7 +203,9 @@ void CodingDomain::to_image(const Planes& samples, std::span<const Vec2> vertice
     }
     if (pixel_of_sample_.empty()) {
         const std::vector<std::span<const float>> in(samples.begin(), samples.end());
-        if (vertices.empty()) {
+        // At rest (a still image, a static video group, a tracked mesh that has not moved) the
+        // plan made with the domain serves: the same plan plan_render would make again.
+        if (vertices.empty() || std::ranges::equal(vertices, shape_.mesh.vertices)) {
             render_into(*rest_plan_, in, out);
         } else {
             render_into(plan_render(*hierarchy_, vertices, shape_.mesh.width, shape_.mesh.height,
