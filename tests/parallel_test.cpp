@@ -1,8 +1,11 @@
 #include "core/math/parallel.h"
 
 #include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <atomic>
+#include <cstdlib>
 #include <stdexcept>
 #include <string>
 #include <thread>
@@ -70,6 +73,28 @@ TEST(Parallel, concurrent_callers_each_cover_their_range) {
     }
     for (std::thread& c : callers) c.join();
     EXPECT_EQ(wrong.load(), 0);
+    set_thread_count(0);
+}
+
+// A child forked without exec has none of the parent's workers; its parallel_for still runs to
+// the end (a hang here is caught by CTest's timeout).
+TEST(Parallel, a_forked_child_gets_a_pool_of_its_own) {
+    set_thread_count(2);
+    std::atomic<int64_t> warm{0};
+    parallel_for(100, [&](int64_t begin, int64_t end) { warm += end - begin; });  // workers up
+    ASSERT_EQ(warm.load(), 100);
+    const pid_t child = fork();
+    ASSERT_GE(child, 0);
+    if (child == 0) {
+        std::atomic<int64_t> sum{0};
+        parallel_for(100, [&](int64_t begin, int64_t end) {
+            for (int64_t i = begin; i < end; ++i) sum += i;
+        });
+        std::_Exit(sum.load() == 4950 ? 0 : 1);
+    }
+    int status = 0;
+    ASSERT_EQ(waitpid(child, &status, 0), child);
+    EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << status;
     set_thread_count(0);
 }
 

@@ -1,5 +1,7 @@
 #include "core/math/parallel.h"
 
+#include <pthread.h>
+
 #include <algorithm>
 #include <atomic>
 #include <condition_variable>
@@ -95,9 +97,22 @@ class Pool {
     size_t workers_ = 0;  // guarded by job_mutex_
 };
 
+std::atomic<Pool*>& pool_pointer() {
+    static std::atomic<Pool*> pointer{nullptr};
+    return pointer;
+}
+
+// Never destroyed: its detached workers wait on it until exit. A child forked without exec has
+// none of them, so it gets a pool of its own (the parent's, whose locks another thread may have
+// held at the fork, is left alone).
 Pool& pool() {
-    static Pool* p = new Pool;  // never destroyed: its detached workers wait on it until exit
-    return *p;
+    static const bool started = [] {
+        pool_pointer().store(new Pool);
+        pthread_atfork(nullptr, nullptr, [] { pool_pointer().store(new Pool); });
+        return true;
+    }();
+    (void)started;
+    return *pool_pointer().load();
 }
 
 }  // namespace
