@@ -309,7 +309,7 @@ class Solver {
         channels_ = image.channels();
         samples_ = static_cast<size_t>(h.levels[level].n_vertices);
         anchor_ = o.anchor.empty() ? sample_image(image, h, mesh_vertices, {.level = level})
-                                   : planes_of(o.anchor, "an anchor");
+                                   : anchor_of(o.anchor);
         for (auto& plane : anchor_) {
             for (float& v : plane) v = std::isfinite(v) ? v : 0.0f;
         }
@@ -340,15 +340,15 @@ class Solver {
     void solve(double smoothness, Projection& x);
 
   private:
-    Planes planes_of(std::span<const std::span<const float>> given, const char* what) const {
+    Planes anchor_of(std::span<const std::span<const float>> given) const {
         if (given.size() != static_cast<size_t>(channels_)) {
-            throw Error(str("projection: ", given.size(), " planes in ", what, " for ", channels_,
-                            " channels"));
+            throw Error(
+                str("projection: ", given.size(), " anchor planes for ", channels_, " channels"));
         }
         Planes out;
         for (const auto& plane : given) {
             if (plane.size() != samples_) {
-                throw Error(str("projection: ", what, " plane has ", plane.size(),
+                throw Error(str("projection: an anchor plane has ", plane.size(),
                                 " values, the level has ", samples_, " samples"));
             }
             out.emplace_back(plane.begin(), plane.end());
