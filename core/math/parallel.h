@@ -1,6 +1,7 @@
-// Work sharing across cores: one static split of an index range over a few threads. Every kernel
-// that uses it writes disjoint outputs per index, so results are identical to the bit whatever
-// the thread count (tests pin this).
+// Work sharing across cores: one static split of an index range over a few threads, run by a pool
+// of workers that lives as long as the process (a call costs a wake-up, not a thread's start).
+// Every kernel that uses it writes disjoint outputs per index, so results are identical to the
+// bit whatever the thread count or split (tests pin this).
 #pragma once
 
 #include <cstdint>
