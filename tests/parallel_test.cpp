@@ -76,9 +76,9 @@ TEST(Parallel, concurrent_callers_each_cover_their_range) {
     set_thread_count(0);
 }
 
-// A child forked without exec has none of the parent's workers; its parallel_for still runs to
-// the end (a hang here is caught by CTest's timeout).
-TEST(Parallel, a_forked_child_gets_a_pool_of_its_own) {
+// A child forked without exec has none of the parent's workers: its parallel_for runs every piece
+// itself and sums right (a hang here is caught by CTest's timeout).
+TEST(Parallel, a_forked_child_runs_its_pieces_itself) {
     set_thread_count(2);
     std::atomic<int64_t> warm{0};
     parallel_for(100, [&](int64_t begin, int64_t end) { warm += end - begin; });  // workers up

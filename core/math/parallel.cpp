@@ -97,22 +97,20 @@ class Pool {
     size_t workers_ = 0;  // guarded by job_mutex_
 };
 
-std::atomic<Pool*>& pool_pointer() {
-    static std::atomic<Pool*> pointer{nullptr};
-    return pointer;
+// Set in a child forked (without exec) after the pool started: the child has none of the
+// workers, and the pool's locks may have been held by one of them at the fork, so the child runs
+// every piece itself and touches nothing of the pool (no locks, no threads, no allocation).
+std::atomic<bool>& forked() {
+    static std::atomic<bool> flag{false};
+    return flag;
 }
 
-// Never destroyed: its detached workers wait on it until exit. A child forked without exec has
-// none of them, so it gets a pool of its own (the parent's, whose locks another thread may have
-// held at the fork, is left alone).
 Pool& pool() {
-    static const bool started = [] {
-        pool_pointer().store(new Pool);
-        pthread_atfork(nullptr, nullptr, [] { pool_pointer().store(new Pool); });
-        return true;
+    static Pool* p = [] {
+        pthread_atfork(nullptr, nullptr, [] { forked().store(true); });
+        return new Pool;  // never destroyed: its detached workers wait on it until exit
     }();
-    (void)started;
-    return *pool_pointer().load();
+    return *p;
 }
 
 }  // namespace
@@ -148,7 +146,7 @@ void parallel_for(int64_t n, const std::function<void(int64_t, int64_t)>& f, int
             if (!failure) failure = std::current_exception();
         }
     };
-    if (!pool().run(pieces, piece)) {
+    if (forked().load() || !pool().run(pieces, piece)) {
         for (int64_t p = 0; p < pieces; ++p) piece(p);
     }
     if (failure) std::rethrow_exception(failure);
