@@ -1,6 +1,7 @@
 #include "core/math/render.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 
 #include "core/math/error.h"
@@ -124,6 +125,49 @@ Image render(const RenderPlan& plan, std::span<const std::span<const float>> pla
     return out;
 }
 
+namespace {
+
+// Quads [begin, end) of render_into: C channels (0: planes.size(), any count). A fixed count keeps
+// the output pointers in registers and unrolls the channel loop; the arithmetic is the same.
+template <int C>
+void render_quads(const RenderPlan& plan, std::span<const std::span<const float>> planes,
+                  float* const* out_planes, const std::vector<size_t>& first_entry, int64_t begin,
+                  int64_t end) {
+    constexpr float kUnit = 1.0f / 65536.0f;
+    const size_t channels = C > 0 ? C : planes.size();
+    const int32_t side = plan.cells + 1, grid_size = side * side;
+    std::vector<float> local(grid_size * channels);
+    std::array<float*, 4> fixed{};
+    float* const* outs = out_planes;
+    if constexpr (C > 0) {
+        for (int c = 0; c < C; ++c) fixed[c] = out_planes[c];
+        outs = fixed.data();
+    }
+    for (int64_t q = begin; q < end; ++q) {
+        const int32_t* ids = &plan.grid[q * grid_size];
+        for (size_t c = 0; c < channels; ++c) {
+            const float* __restrict x = planes[c].data();
+            float* __restrict g = local.data() + c * grid_size;
+            for (int32_t k = 0; k < grid_size; ++k) g[k] = x[ids[k]];
+        }
+        size_t i = first_entry[q];
+        for (int32_t run = plan.quad_runs[q]; run < plan.quad_runs[q + 1]; ++run) {
+            const int32_t start = plan.run_start[run], length = plan.run_length[run];
+            for (int32_t n = 0; n < length; ++n, ++i) {
+                const float s = plan.st[i][0] * kUnit, r = plan.st[i][1] * kUnit;
+                const float* v = local.data() + plan.cell[i];
+                for (size_t c = 0; c < channels; ++c, v += grid_size) {
+                    const float top = v[0] + (v[1] - v[0]) * s;
+                    const float bottom = v[side] + (v[side + 1] - v[side]) * s;
+                    outs[c][start + n] = top + (bottom - top) * r;
+                }
+            }
+        }
+    }
+}
+
+}  // namespace
+
 void render_into(const RenderPlan& plan, std::span<const std::span<const float>> planes,
                  Image& out) {
     if (out.width != plan.width || out.height != plan.height ||
@@ -138,7 +182,6 @@ void render_into(const RenderPlan& plan, std::span<const std::span<const float>>
                             plan.level, " has ", plan.samples, " samples"));
         }
     }
-    const int32_t side = plan.cells + 1, grid_size = side * side;
     const size_t channels = planes.size(), quads = plan.quad_runs.size() - 1;
     std::vector<float*> outs(channels);
     for (size_t c = 0; c < channels; ++c) outs[c] = out.planes[c].data();
@@ -150,34 +193,23 @@ void render_into(const RenderPlan& plan, std::span<const std::span<const float>>
             first_entry[q + 1] += plan.run_length[run];
         }
     }
-    constexpr float kUnit = 1.0f / 65536.0f;
     // One quad at a time: its grid values of every channel staged side by side, then its pixel
     // runs read their plan entries once and interpolate all channels from the staged grids.
     // Quads own disjoint pixels, so the cores take a share of quads each.
     parallel_for(
         static_cast<int64_t>(quads),
         [&](int64_t begin, int64_t end) {
-            std::vector<float> local(grid_size * channels);
-            for (int64_t q = begin; q < end; ++q) {
-                const int32_t* ids = &plan.grid[q * grid_size];
-                for (size_t c = 0; c < channels; ++c) {
-                    const float* __restrict x = planes[c].data();
-                    float* __restrict g = local.data() + c * grid_size;
-                    for (int32_t k = 0; k < grid_size; ++k) g[k] = x[ids[k]];
-                }
-                size_t i = first_entry[q];
-                for (int32_t run = plan.quad_runs[q]; run < plan.quad_runs[q + 1]; ++run) {
-                    const int32_t start = plan.run_start[run], length = plan.run_length[run];
-                    for (int32_t n = 0; n < length; ++n, ++i) {
-                        const float s = plan.st[i][0] * kUnit, r = plan.st[i][1] * kUnit;
-                        const float* v = local.data() + plan.cell[i];
-                        for (size_t c = 0; c < channels; ++c, v += grid_size) {
-                            const float top = v[0] + (v[1] - v[0]) * s;
-                            const float bottom = v[side] + (v[side + 1] - v[side]) * s;
-                            outs[c][start + n] = top + (bottom - top) * r;
-                        }
-                    }
-                }
+            switch (channels) {
+                case 1:
+                    return render_quads<1>(plan, planes, outs.data(), first_entry, begin, end);
+                case 2:
+                    return render_quads<2>(plan, planes, outs.data(), first_entry, begin, end);
+                case 3:
+                    return render_quads<3>(plan, planes, outs.data(), first_entry, begin, end);
+                case 4:
+                    return render_quads<4>(plan, planes, outs.data(), first_entry, begin, end);
+                default:
+                    return render_quads<0>(plan, planes, outs.data(), first_entry, begin, end);
             }
         },
         16);
