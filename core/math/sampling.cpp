@@ -1,6 +1,7 @@
 #include "core/math/sampling.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 
 #include "core/math/error.h"
@@ -54,17 +55,51 @@ inline float apply(const Tap& t, const float* plane) {
 
 }  // namespace
 
+namespace {
+
+// Positions [begin, end) of sample_bilinear: C channels (0: any count). A fixed count keeps the
+// plane pointers in registers and unrolls the channel loop; the arithmetic is the same.
+template <int C>
+void sample_positions(const Image& image, std::span<const Vec2> positions,
+                      std::vector<std::vector<float>>& out, int64_t begin, int64_t end) {
+    const int channels = C > 0 ? C : image.channels();
+    std::array<const float*, 4> in{};
+    std::array<float*, 4> to{};
+    if constexpr (C > 0) {
+        for (int c = 0; c < C; ++c) in[c] = image.planes[c].data(), to[c] = out[c].data();
+    }
+    const int w = image.width, h = image.height;
+    for (int64_t i = begin; i < end; ++i) {
+        const Tap t = tap(w, h, 1.0, positions[i]);  // level 0
+        for (int c = 0; c < channels; ++c) {
+            if constexpr (C > 0) {
+                to[c][i] = apply(t, in[c]);
+            } else {
+                out[c][i] = apply(t, image.planes[c].data());
+            }
+        }
+    }
+}
+
+}  // namespace
+
 std::vector<std::vector<float>> sample_bilinear(const Image& image,
                                                 std::span<const Vec2> positions) {
     std::vector<std::vector<float>> out(image.channels(), std::vector<float>(positions.size()));
     parallel_for(
         static_cast<int64_t>(positions.size()),
         [&](int64_t begin, int64_t end) {
-            for (int64_t i = begin; i < end; ++i) {
-                const Tap t = tap(image.width, image.height, 1.0, positions[i]);  // level 0
-                for (int c = 0; c < image.channels(); ++c) {
-                    out[c][i] = apply(t, image.planes[c].data());
-                }
+            switch (image.channels()) {
+                case 1:
+                    return sample_positions<1>(image, positions, out, begin, end);
+                case 2:
+                    return sample_positions<2>(image, positions, out, begin, end);
+                case 3:
+                    return sample_positions<3>(image, positions, out, begin, end);
+                case 4:
+                    return sample_positions<4>(image, positions, out, begin, end);
+                default:
+                    return sample_positions<0>(image, positions, out, begin, end);
             }
         },
         4096);
