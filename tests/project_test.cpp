@@ -137,6 +137,22 @@ TEST(Project, each_smoothness_from_one_assembly_matches_a_call_per_value) {
     EXPECT_LT(each_total, alone_total);
 }
 
+// A render plan the caller keeps gives the same samples to the bit as the one made inside; one
+// of another size is refused.
+TEST(Project, a_given_render_plan_gives_the_same_samples) {
+    const Image image = samples::scene_image(160, 120, 3);
+    const Mesh mesh = grid_mesh(160, 120, 10, 8);
+    const Hierarchy h = build_hierarchy(mesh, {.levels = 4, .finest_topology = false});
+    const RenderPlan plan = plan_render(h, mesh.vertices, 160, 120, 160, 120);
+    const Projection own = project_image(image, h, mesh.vertices, {.smoothness = 0.01});
+    const Projection given =
+        project_image(image, h, mesh.vertices, {.smoothness = 0.01, .plan = &plan});
+    EXPECT_EQ(given.planes, own.planes);
+    EXPECT_EQ(given.iterations, own.iterations);
+    const RenderPlan half = plan_render(h, mesh.vertices, 160, 120, 80, 60);
+    EXPECT_THROW(project_image(image, h, mesh.vertices, {.plan = &half}), Error);
+}
+
 // Alpha is a channel like the others; each channel is fitted on its own, whatever the others.
 TEST(Project, any_number_of_channels) {
     const Mesh mesh = grid_mesh(64, 48, 4, 3);

@@ -160,6 +160,16 @@ GridTransformOptions CodingDomain::grid_options() const {
     return {.wavelet = wavelet_of(shape_.transform), .levels = shape_.levels};
 }
 
+bool CodingDomain::at_rest(std::span<const Vec2> vertices) const {
+    return std::ranges::equal(vertices, shape_.mesh.vertices);
+}
+
+// Whether the rest plan is the one a projection would make: the mesh's domain is the image's
+// pixel rectangle (project.h), not a rectangle scaled onto it.
+bool CodingDomain::rest_plan_is_pixels() const {
+    return rest_plan_ && shape_.mesh.width == shape_.width && shape_.mesh.height == shape_.height;
+}
+
 void CodingDomain::check_image(const Image& image) const {
     if (image.width != shape_.width || image.height != shape_.height ||
         image.channels() != shape_.channels) {
@@ -182,7 +192,9 @@ void CodingDomain::sample_into(const Image& image, std::span<const Vec2> vertice
         const std::span<const Vec2> at =
             vertices.empty() ? std::span<const Vec2>(shape_.mesh.vertices) : vertices;
         if (sampling == Sampling::fit) {
-            out = project_image(image, *hierarchy_, at, projection).planes;
+            ProjectOptions po = projection;
+            if (at_rest(at) && rest_plan_is_pixels()) po.plan = &*rest_plan_;
+            out = project_image(image, *hierarchy_, at, po).planes;
         } else {
             sample_image_into(image, *hierarchy_, at, spans(out));
         }
@@ -205,7 +217,7 @@ void CodingDomain::to_image(const Planes& samples, std::span<const Vec2> vertice
         const std::vector<std::span<const float>> in(samples.begin(), samples.end());
         // At rest (a still image, a static video group, a tracked mesh that has not moved) the
         // plan made with the domain serves: the same plan plan_render would make again.
-        if (vertices.empty() || std::ranges::equal(vertices, shape_.mesh.vertices)) {
+        if (vertices.empty() || at_rest(vertices)) {
             render_into(*rest_plan_, in, out);
         } else {
             render_into(plan_render(*hierarchy_, vertices, shape_.mesh.width, shape_.mesh.height,
@@ -246,7 +258,9 @@ void CodingDomain::analyze_fits(const Image& image, std::span<const double> smoo
         }
         return;
     }
-    project_image_each(image, *hierarchy_, shape_.mesh.vertices, smoothness, projection,
+    ProjectOptions po = projection;
+    if (rest_plan_is_pixels()) po.plan = &*rest_plan_;
+    project_image_each(image, *hierarchy_, shape_.mesh.vertices, smoothness, po,
                        [&](size_t k, const Projection& p) {
                            Planes x = p.planes;
                            transform(x);

@@ -100,6 +100,8 @@ class CodingDomain {
 
   private:
     void check_image(const Image& image) const;
+    bool at_rest(std::span<const Vec2> vertices) const;  // the rest positions, as rest_plan_'s
+    bool rest_plan_is_pixels() const;
     void transform(Planes& samples) const;  // colour transform and analysis
     void sample_into(const Image& image, std::span<const Vec2> vertices, Planes& out,
                      Sampling sampling = Sampling::point,

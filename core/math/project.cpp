@@ -315,18 +315,30 @@ class Solver {
         }
         if (o.max_iterations == 0 || samples_ == 0) return;
 
-        plan_ = plan_render(h, mesh_vertices, image.width, image.height, image.width, image.height,
-                            {.level = level});
-        A_.side = plan_.cells + 1;
+        if (o.plan) {
+            if (o.plan->width != image.width || o.plan->height != image.height ||
+                o.plan->level != level || o.plan->samples != static_cast<int32_t>(samples_)) {
+                throw Error(str("projection: the given render plan is ", o.plan->width, "x",
+                                o.plan->height, " at level ", o.plan->level, "; the image is ",
+                                image.width, "x", image.height, " at level ", level));
+            }
+            plan_ = o.plan;
+        } else {
+            own_plan_ = plan_render(h, mesh_vertices, image.width, image.height, image.width,
+                                    image.height, {.level = level});
+            plan_ = &own_plan_;
+        }
+        const RenderPlan& plan = *plan_;
+        A_.side = plan.cells + 1;
         A_.grid_size = A_.side * A_.side;
-        A_.quads = plan_.quad_runs.size() - 1;
-        A_.grid = plan_.grid.data();
+        A_.quads = plan.quad_runs.size() - 1;
+        A_.grid = plan.grid.data();
         A_.stencil.reset(new float[A_.quads * 9 * A_.grid_size]);  // zeroed by add_data_term
         shared_ = find_shared(A_, samples_);
         unit_ = static_cast<double>(image.width) * image.height / samples_;
         A_.alpha = o.anchor_weight * unit_;
         b_.assign(channels_, std::vector<float>(samples_, 0.0f));
-        add_data_term(plan_, image, shared_, A_, b_);
+        add_data_term(plan, image, shared_, A_, b_);
         for (int c = 0; c < channels_; ++c) {
             for (size_t k = 0; k < samples_; ++k)
                 b_[c][k] += static_cast<float>(A_.alpha) * anchor_[c][k];
@@ -360,7 +372,8 @@ class Solver {
     int channels_ = 0;
     size_t samples_ = 0;
     Planes anchor_, b_;
-    RenderPlan plan_;
+    RenderPlan own_plan_;
+    const RenderPlan* plan_ = nullptr;  // own_plan_ or the caller's
     NormalMatrix A_;
     SharedNodes shared_;
     double unit_ = 0;

@@ -29,6 +29,7 @@
 #include "core/math/geometry.h"
 #include "core/math/hierarchy.h"
 #include "core/math/image.h"
+#include "core/math/render.h"
 
 namespace tesswave {
 
@@ -40,6 +41,9 @@ struct ProjectOptions {
     double tolerance = 1e-4;      // stop when each channel's residual is this part of its b
     // One plane per channel (the level's sample count each); empty: the prefiltered point samples.
     std::span<const std::span<const float>> anchor = {};
+    // The render plan of these vertex positions at the image's size and this level, when the
+    // caller keeps one (a coding domain at rest); null: made here. It must outlive the call.
+    const RenderPlan* plan = nullptr;
 };
 
 struct Projection {
