@@ -25,6 +25,52 @@ void close_lists(CodingLayout& layout) {
     }
 }
 
+// Fills a layout's lists through cursors into arrays sized from above (the entries exactly, at
+// most nb_bound neighbours and pa_bound parents), then cuts them to what was written and closes
+// them: the one way both layouts are built.
+class LayoutWriter {
+  public:
+    LayoutWriter(CodingLayout& layout, size_t entries, size_t nb_bound, size_t pa_bound)
+        : layout_(layout) {
+        layout.order.resize(entries);
+        layout.nb_primary.assign(entries, 0);
+        layout.nb_offsets.resize(entries);
+        layout.pa_offsets.resize(entries);
+        layout.nb.resize(nb_bound);
+        layout.pa.resize(pa_bound);
+        order_ = layout.order.data();
+        primary_ = layout.nb_primary.data();
+        nb_offsets_ = layout.nb_offsets.data();
+        pa_offsets_ = layout.pa_offsets.data();
+        nb_ = layout.nb.data();
+        pa_ = layout.pa.data();
+    }
+
+    // The next entry, coefficient `id`; its neighbours and parents follow.
+    void start(int32_t id) {
+        order_[k_] = id;
+        nb_offsets_[k_] = nbn_;
+        pa_offsets_[k_++] = pan_;
+    }
+    void neighbour(int32_t id) { nb_[nbn_++] = id; }
+    void add_primary() { ++primary_[k_ - 1]; }  // the last neighbour is a primary one
+    void set_primary(int count) { primary_[k_ - 1] = static_cast<uint8_t>(count); }
+    void parent(int32_t id) { pa_[pan_++] = id; }
+    int32_t position() const { return k_; }
+
+    void finish() {
+        layout_.nb.resize(static_cast<size_t>(nbn_));
+        layout_.pa.resize(static_cast<size_t>(pan_));
+        close_lists(layout_);
+    }
+
+  private:
+    CodingLayout& layout_;
+    int32_t *order_, *nb_offsets_, *pa_offsets_, *nb_, *pa_;
+    uint8_t* primary_;
+    int32_t k_ = 0, nbn_ = 0, pan_ = 0;
+};
+
 }  // namespace
 
 CodingLayout mesh_layout(const Hierarchy& h, double domain_area, int probes) {
@@ -49,38 +95,20 @@ CodingLayout mesh_layout(const Hierarchy& h, double domain_area, int probes) {
         }
         pa_bound += 2 * static_cast<size_t>(t.num_edges());
     }
-    layout.order.resize(n);
-    layout.nb_primary.assign(n, 0);
-    layout.nb_offsets.resize(n);
-    layout.pa_offsets.resize(n);
-    layout.nb.resize(nb_bound);
-    layout.pa.resize(pa_bound);
-    int32_t* order = layout.order.data();
-    uint8_t* primary = layout.nb_primary.data();
-    int32_t* nb_offsets = layout.nb_offsets.data();
-    int32_t* pa_offsets = layout.pa_offsets.data();
-    int32_t* nb = layout.nb.data();
-    int32_t* pa = layout.pa.data();
-    int32_t k = 0, nbn = 0, pan = 0;
-    auto start = [&](int32_t id) {
-        order[k] = id;
-        nb_offsets[k] = nbn;
-        pa_offsets[k] = pan;
-        return k++;
-    };
+    LayoutWriter w(layout, static_cast<size_t>(n), nb_bound, pa_bound);
     auto parent = [&](int32_t id) {
-        if (id >= n0) pa[pan++] = id;
+        if (id >= n0) w.parent(id);
     };
 
     layout.bands.push_back({-1, 'v', 0, n0, norm(0, n0)});
-    for (int32_t i = 0; i < n0; ++i) start(i);
+    for (int32_t i = 0; i < n0; ++i) w.start(i);
     for (int j = 0; j < J; ++j) {
         const LevelTopology& t = h.levels[j];
         const int32_t e0 = t.n_vertices, f0 = e0 + t.num_edges(), f1 = t.n_next();
         // Edge points.
         layout.bands.push_back({j, 'e', e0, f0, norm(e0, f0)});
         for (int32_t e = 0; e < t.num_edges(); ++e) {
-            const int32_t at = start(e0 + e);
+            w.start(e0 + e);
             // Primary: the opposite edge in each face with an even number of corners (on a
             // grid, the EBCOT neighbours across the edge's own direction).
             int32_t opposite[2] = {-1, -1};
@@ -98,17 +126,17 @@ CodingLayout mesh_layout(const Hierarchy& h, double domain_area, int probes) {
             }
             for (int s = 0; s < 2; ++s) {
                 if (t.edge_f[e][s] >= 0 && opposite[s] >= 0) {
-                    nb[nbn++] = e0 + opposite[s];
-                    ++primary[at];
+                    w.neighbour(e0 + opposite[s]);
+                    w.add_primary();
                 }
             }
             for (int s = 0; s < 2; ++s) {
                 const int32_t f = t.edge_f[e][s];
                 if (f < 0) continue;
-                nb[nbn++] = f0 + f;
+                w.neighbour(f0 + f);
                 for (int32_t c = t.face_offsets[f]; c < t.face_offsets[f + 1]; ++c) {
                     if (t.face_e[c] != e && t.face_e[c] != opposite[s])
-                        nb[nbn++] = e0 + t.face_e[c];
+                        w.neighbour(e0 + t.face_e[c]);
                 }
             }
             parent(t.edge_v[e][0]);
@@ -117,25 +145,23 @@ CodingLayout mesh_layout(const Hierarchy& h, double domain_area, int probes) {
         // Face points.
         layout.bands.push_back({j, 'f', f0, f1, norm(f0, f1)});
         for (int32_t f = 0; f < t.num_faces(); ++f) {
-            const int32_t at = start(f0 + f);
+            w.start(f0 + f);
             // Primary: the faces across its edges; then its edge points.
             for (int32_t c = t.face_offsets[f]; c < t.face_offsets[f + 1]; ++c) {
                 const auto& ef = t.edge_f[t.face_e[c]];
                 const int32_t other = ef[0] == f ? ef[1] : ef[0];
                 if (other >= 0) {
-                    nb[nbn++] = f0 + other;
-                    ++primary[at];
+                    w.neighbour(f0 + other);
+                    w.add_primary();
                 }
             }
             for (int32_t c = t.face_offsets[f]; c < t.face_offsets[f + 1]; ++c) {
-                nb[nbn++] = e0 + t.face_e[c];
+                w.neighbour(e0 + t.face_e[c]);
                 parent(t.face_v[c]);
             }
         }
     }
-    layout.nb.resize(static_cast<size_t>(nbn));
-    layout.pa.resize(static_cast<size_t>(pan));
-    close_lists(layout);
+    w.finish();
     // Bands hold positions in `order`; for the mesh these equal the coefficient ids.
     return layout;
 }
@@ -165,21 +191,8 @@ CodingLayout grid_layout(int width, int height, int levels, GridWavelet wavelet,
     CodingLayout layout;
     layout.size = width * height;
     const auto size = static_cast<size_t>(layout.size);
-    // Filled through cursors (one entry a coefficient; at most 8 neighbours and 1 parent each),
-    // then cut to what was written.
-    layout.order.resize(size);
-    layout.nb_primary.resize(size);
-    layout.nb_offsets.resize(size);
-    layout.pa_offsets.resize(size);
-    layout.nb.resize(size * 8);
-    layout.pa.resize(size);
-    int32_t* order = layout.order.data();
-    uint8_t* primary_count = layout.nb_primary.data();
-    int32_t* nb_offsets = layout.nb_offsets.data();
-    int32_t* pa_offsets = layout.pa_offsets.data();
-    int32_t* nb = layout.nb.data();
-    int32_t* pa = layout.pa.data();
-    int32_t k = 0, nbn = 0, pan = 0;
+    // One entry a coefficient; at most 8 neighbours and 1 parent each.
+    LayoutWriter w(layout, size, size * 8, size);
     const std::vector<GridBand> bands = grid_bands(width, height, levels);
     const char types[] = {'L', 'H', 'V', 'D'};
     std::vector<double> band_norms(bands.size(), 1.0);
@@ -189,7 +202,7 @@ CodingLayout grid_layout(int width, int height, int levels, GridWavelet wavelet,
     }
     for (size_t b = 0; b < bands.size(); ++b) {
         const GridBand& g = bands[b];
-        const int32_t begin = k;
+        const int32_t begin = w.position();
         // The same orientation one level coarser (none for the LL band and the coarsest details).
         const GridBand* coarser = nullptr;
         if (g.type != 0 && b >= 4 && bands[b - 3].level == g.level + 1) coarser = &bands[b - 3];
@@ -214,37 +227,32 @@ CodingLayout grid_layout(int width, int height, int levels, GridWavelet wavelet,
         for (int y = 0; y < g.height; ++y) {
             const bool inner_row = y > 0 && y + 1 < g.height;
             const int32_t row = (g.y0 + y) * width + g.x0;
-            for (int xx = 0; xx < g.width; ++xx, ++k) {
+            for (int xx = 0; xx < g.width; ++xx) {
                 const int32_t id = row + xx;
-                order[k] = id;
-                nb_offsets[k] = nbn;
-                pa_offsets[k] = pan;
+                w.start(id);
                 if (inner_row && xx > 0 && xx + 1 < g.width) {
-                    for (int i = 0; i < 8; ++i) nb[nbn + i] = id + offset[i];
-                    nbn += 8;
-                    primary_count[k] = static_cast<uint8_t>(primaries);
+                    for (int i = 0; i < 8; ++i) w.neighbour(id + offset[i]);
+                    w.set_primary(primaries);
                 } else {
                     int count = 0;
                     for (int i = 0; i < 8; ++i) {
                         const int yy = y + dys[i], xn = xx + dxs[i];
                         if (yy < 0 || yy >= g.height || xn < 0 || xn >= g.width) continue;
-                        nb[nbn++] = id + offset[i];
+                        w.neighbour(id + offset[i]);
                         count += i < primaries;
                     }
-                    primary_count[k] = static_cast<uint8_t>(count);
+                    w.set_primary(count);
                 }
                 if (coarser) {
                     const int py = std::min(y / 2, coarser->height - 1);
                     const int px = std::min(xx / 2, coarser->width - 1);
-                    pa[pan++] = (coarser->y0 + py) * width + coarser->x0 + px;
+                    w.parent((coarser->y0 + py) * width + coarser->x0 + px);
                 }
             }
         }
-        layout.bands.push_back({g.level, types[g.type], begin, k, band_norms[b]});
+        layout.bands.push_back({g.level, types[g.type], begin, w.position(), band_norms[b]});
     }
-    layout.nb.resize(static_cast<size_t>(nbn));
-    layout.pa.resize(static_cast<size_t>(pan));
-    close_lists(layout);
+    w.finish();
     return layout;
 }
 
