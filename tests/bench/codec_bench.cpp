@@ -30,8 +30,8 @@
 #include "core/codec/still_codec.h"
 #include "core/eval/peer_jpeg2000.h"
 #include "core/math/metrics.h"
-#include "core/math/parallel.h"
 #include "core/math/strings.h"
+#include "row_threads.h"
 #include "samples/sample_images.h"
 
 namespace tesswave {
@@ -81,14 +81,6 @@ void forget_domains(benchmark::State& state, bool cold) {
     clear_domain_cache();
     state.ResumeTiming();
 }
-
-// Sets the thread count for a row and back to the binary's single thread when the row ends.
-struct RowThreads {
-    explicit RowThreads(int threads) { set_thread_count(threads); }
-    ~RowThreads() { set_thread_count(1); }
-    RowThreads(const RowThreads&) = delete;
-    RowThreads& operator=(const RowThreads&) = delete;
-};
 
 void BM_Codec_encode(benchmark::State& state, Coder coder, double bpp, bool cold, int threads) {
     const RowThreads row(threads);

@@ -39,11 +39,11 @@
 #include "core/math/error.h"
 #include "core/math/grid_mesh.h"
 #include "core/math/metrics.h"
-#include "core/math/parallel.h"
 #include "morph/auto_match.h"
 #include "morph/inbetween.h"
 #include "morph/morph.h"
 #include "morph/pair.h"
+#include "row_threads.h"
 #include "samples/sample_pair.h"
 
 namespace tesswave::morph {
@@ -224,7 +224,7 @@ void frames_counter(benchmark::State& state) {
 void BM_Morph_frame(benchmark::State& state, ScheduleKind kind, bool preview) {
     const FrameSetup& s = frame_setup();
     const Morph& morph = prepared_morph(kind);
-    set_thread_count(static_cast<int>(state.range(0)));
+    const RowThreads row(state.range(0));
     for (auto _ : state) {
         Image frame = morph.frame(kT, {.preview = preview});
         benchmark::DoNotOptimize(frame.planes[0].data());
@@ -235,7 +235,6 @@ void BM_Morph_frame(benchmark::State& state, ScheduleKind kind, bool preview) {
         benchmark::Counter(s.classic_seconds, benchmark::Counter::kIsIterationInvariantRate |
                                                   benchmark::Counter::kInvert);
     state.counters["PSNR"] = psnr(s.truth, morph.frame(kT, {.preview = preview})).all;
-    set_thread_count(1);  // the binary's single-thread default (lifting_bench.cpp)
     state.counters["levels"] = morph.levels();
     state.counters["samples_per_pixel"] =
         static_cast<double>(morph.samples()) / (double{kWidth} * kHeight);

@@ -17,7 +17,7 @@
 #include <vector>
 
 #include "core/eval/peer_video.h"
-#include "core/math/parallel.h"
+#include "row_threads.h"
 #include "samples/sample_clip.h"
 #include "video/dec_video.h"
 #include "video/enc_video.h"
@@ -71,14 +71,6 @@ void encode_clip(int mode) {
     for (const Image& f : clip()) encoder.encode(f);
     encoder.finish();
 }
-
-// Sets the row's thread count, and back to the binary's single thread when the row ends.
-struct RowThreads {
-    explicit RowThreads(int64_t threads) { set_thread_count(static_cast<int>(threads)); }
-    ~RowThreads() { set_thread_count(1); }
-    RowThreads(const RowThreads&) = delete;
-    RowThreads& operator=(const RowThreads&) = delete;
-};
 
 void BM_VideoEncode(benchmark::State& state) {
     const int mode = static_cast<int>(state.range(0));
