@@ -38,7 +38,7 @@ struct CompareVideoArgs {
     int group = 32;
     double fps = 0;
     std::string sampling = "fit";  // VideoEncodeOptions says why
-    bool overwrite = false, json = false;
+    bool mesh_only = false, overwrite = false, json = false;
 };
 
 // An item of --rates: bits per pixel, or kbit/s with a k suffix.
@@ -247,7 +247,8 @@ void compare_at_rate(Session& s, const ClipInfo& clip, const Image& original, co
                     str(clip.stem, " ", method_id(m), " ", rate.text, " ", what);
                 s.bar.update((s.done + f * clip.pixels()) / s.total, stage.substr(0, 30).c_str());
             },
-            sampling_from_name(s.args.sampling)};
+            sampling_from_name(s.args.sampling),
+            s.args.mesh_only};
         Image shown;
         VideoRow row = run_video_method(context, m, rate.bpp(clip), &shown);
         row.rate = rate.text;
@@ -353,6 +354,9 @@ void add_compare_video_command(CLI::App& app) {
                     "Raw .yuv input: yuv420p, yuv422p, yuv444p, gray");
     cmd->add_option("-o,--output", a->output, "Output folder")->required();
     add_sampling_option(cmd, a->sampling);
+    cmd->add_flag("--mesh-only", a->mesh_only,
+                  "The moving mesh codes every group on the mesh (by default a group is also "
+                  "coded on the fixed-grid 9/7 and kept there when that is better)");
     cmd->add_flag("-y,--overwrite", a->overwrite, "Overwrite files in a non-empty folder");
     cmd->add_flag("--json", a->json, "Print the whole result as JSON");
     cmd->callback([a] { run_compare_video(*a); });

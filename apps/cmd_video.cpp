@@ -28,7 +28,7 @@ struct EncodeArgs {
     int64_t max_frames = 0;
     std::string sampling = "fit";  // VideoEncodeOptions says why
     std::string chroma = "auto";
-    bool low_delay = false, overwrite = false, json = false;
+    bool low_delay = false, mesh_only = false, overwrite = false, json = false;
 };
 
 // The label of a frame kind in --json and tables.
@@ -109,13 +109,14 @@ void run_encode(const EncodeArgs& a) {
         .low_delay = a.low_delay,
         .chroma_420 = a.chroma == "420" || (a.chroma == "auto" && source.chroma_subsampled()),
         .kbps = a.kbps,
-        .intra_weight = a.intra_weight};
+        .intra_weight = a.intra_weight,
+        .grid_groups = !a.mesh_only};
     if (a.quality > 0) o.quality = a.quality;
     o.sampling = sampling_from_name(a.sampling);
     if (o.kbps > 0) o.quality = 0;  // the rate decides
     const int64_t total = a.max_frames > 0 ? a.max_frames : source.frame_count_estimate();
     ProgressBar bar;
-    int64_t n = 0, groups = 0;
+    int64_t n = 0, groups = 0, static_groups = 0, grid_groups = 0;
     int64_t* given_count = nullptr;  // set below: frames given to the encoder
     if (total > 0) {
         o.progress = [&bar, &given_count, total](double done, const char* stage) {
@@ -149,6 +150,8 @@ void run_encode(const EncodeArgs& a) {
             warn(str("warning: ", a.input, ": ", line));
         }
         groups += f.first_in_group;
+        static_groups += f.first_in_group && f.static_group;
+        grid_groups += f.first_in_group && f.grid_group;
         frames.push_back({{"frame", f.number},
                           {"kind", kind_name(f.kind)},
                           {"bytes", f.bytes},
@@ -157,6 +160,9 @@ void run_encode(const EncodeArgs& a) {
                           {"tracks", f.tracks},
                           {"fit_rms", f.fit_rms},
                           {"new_group", f.new_group},
+                          {"group_domain", f.grid_group     ? "grid97"
+                                           : f.static_group ? "static"
+                                                            : "own"},
                           {"quality_target", f.quality_target}});
         ++n;
     };
@@ -190,6 +196,8 @@ void run_encode(const EncodeArgs& a) {
                         {"height", source.height()},
                         {"frames", n},
                         {"groups", groups},
+                        {"static_groups", static_groups},
+                        {"grid_groups", grid_groups},
                         {"bytes", bytes},
                         {"kbps", kbps},
                         {"bpp", bpp},
@@ -201,12 +209,15 @@ void run_encode(const EncodeArgs& a) {
         std::printf("%s\n", j.dump(2).c_str());
         return;
     }
+    std::string kept;  // which groups left the clip's own domain
+    if (static_groups > 0) kept += str(", ", static_groups, " on the static mesh");
+    if (grid_groups > 0) kept += str(", ", grid_groups, " on the fixed grid");
     std::printf(
-        "%s: %lld frames %dx%d in %lld groups, %lld bytes, %.1f kbit/s at %.3g fps "
+        "%s: %lld frames %dx%d in %lld groups%s, %lld bytes, %.1f kbit/s at %.3g fps "
         "(%.4f bpp), mean PSNR %.2f dB; %.1f frames/s\n",
         a.output.c_str(), static_cast<long long>(n), source.width(), source.height(),
-        static_cast<long long>(groups), static_cast<long long>(bytes), kbps, fps, bpp, psnr_sum / n,
-        n / seconds);
+        static_cast<long long>(groups), kept.c_str(), static_cast<long long>(bytes), kbps, fps, bpp,
+        psnr_sum / n, n / seconds);
 }
 
 struct DecodeArgs {
@@ -299,9 +310,12 @@ std::vector<std::string> video_demo(const std::string& clip, const std::string& 
         const char* file;
         video::VideoEncodeOptions options;
     };
+    // The mesh alone (every group on it), to show what it buys over the fixed grid.
     const Method methods[] = {
-        {"moving mesh", "clip.twv", {.kbps = kbps}},
-        {"static mesh", "clip_static.twv", {.motion = video::TwvMotion::none, .kbps = kbps}},
+        {"moving mesh", "clip.twv", {.kbps = kbps, .grid_groups = false}},
+        {"static mesh",
+         "clip_static.twv",
+         {.motion = video::TwvMotion::none, .kbps = kbps, .grid_groups = false}},
         {"fixed grid 5/3", "clip_grid53.twv", {.transform = TwiTransform::grid53, .kbps = kbps}},
     };
     const std::string mesh_dir = (fs::path(dir) / "clip_mesh").string();
@@ -386,6 +400,9 @@ void add_video_commands(CLI::App& app) {
         ->check(CLI::Range(1, 12));
     enc->add_option("-g,--group", e->group, "Intra period: frames per group (default 32)")
         ->check(CLI::Range(1, 100000));
+    enc->add_flag("--mesh-only", e->mesh_only,
+                  "Code every group on the mesh (by default a group is also coded on the "
+                  "fixed-grid 9/7 and kept there when that is better)");
     enc->add_flag("--low-delay", e->low_delay,
                   "Code each frame as it comes (closed-loop deltas) instead of lifting each "
                   "group along time, which takes a group of latency and gives more quality per "

@@ -1,5 +1,5 @@
 // The encoder's lifted groups (enc_video.h): temporal transform, embedded streams, one cut, and
-// the choice between the tracked mesh and the static one.
+// the choice between the tracked mesh, the static one and the fixed grid.
 #include <algorithm>
 #include <cmath>
 
@@ -34,17 +34,18 @@ double squared_error(const Image& a, const Image& b) {
 
 // One way of coding the pending group: the frames' coefficients on `vertices` (their own, or the
 // rest mesh) with `motion` bytes each, lifted, coded and cut; with the decoder's images.
-VideoEncoder::GroupCoding VideoEncoder::code_group(std::vector<Planes> x,
+VideoEncoder::GroupCoding VideoEncoder::code_group(const CodingDomain& domain, const TwvGroup& base,
+                                                   std::vector<Planes> x,
                                                    const std::vector<std::vector<Vec2>>& vertices,
                                                    const std::vector<std::vector<uint8_t>>& motion,
-                                                   TwvMotion kind) {
+                                                   TwvMotion kind, float fine_step) {
     const int n = static_cast<int>(x.size());
     const int64_t first = pending_.front().info.number;
     const int levels = temporal_levels(n);
     temporal_forward(x, levels);
     const std::vector<double> norms = temporal_norms(n, levels);
     GroupCoding g;
-    g.group = group_;
+    g.group = base;
     g.group.first_frame = first;
     g.group.lifted = n;
     g.group.motion = kind;
@@ -80,18 +81,18 @@ VideoEncoder::GroupCoding VideoEncoder::code_group(std::vector<Planes> x,
             f.kind = TwvFrameKind::band;
             f.base_step = static_cast<float>(base_step / norms[static_cast<size_t>(t)]);
             f.motion = motion[static_cast<size_t>(t)];
-            const IntPlanes q = quantize_planes(x[static_cast<size_t>(t)], f.base_step);
-            f.planes = count_planes(domain_->layout(), const_spans(q));
+            const IntPlanes q = quantize_planes(domain, x[static_cast<size_t>(t)], f.base_step);
+            f.planes = count_planes(domain.layout(), const_spans(q));
             EmbeddedStream& s = streams[static_cast<size_t>(t)];
             bool empty = true;
             for (const auto& channel : f.planes) {
                 for (uint8_t p : channel) empty = empty && p == 0;
             }
             if (empty) continue;
-            const BitplaneOptions bo{.shifts = std::vector<int>(domain_->layout().bands.size(), 0),
+            const BitplaneOptions bo{.shifts = std::vector<int>(domain.layout().bands.size(), 0),
                                      .max_bytes = cap,
                                      .pass_ends = &s.pass_ends};
-            f.stream = encode_bitplanes(domain_->layout(), const_spans(q), f.planes, bo);
+            f.stream = encode_bitplanes(domain.layout(), const_spans(q), f.planes, bo);
             s.size = f.stream.size();
             whole += s.size;
             capped = capped || any_capped(s);
@@ -106,7 +107,7 @@ VideoEncoder::GroupCoding VideoEncoder::code_group(std::vector<Planes> x,
             std::vector<Planes> y(static_cast<size_t>(n));
             for (int t = 0; t < n; ++t) {
                 y[static_cast<size_t>(t)] =
-                    requantized(x[static_cast<size_t>(t)],
+                    requantized(domain, x[static_cast<size_t>(t)],
                                 static_cast<float>(base_step / norms[static_cast<size_t>(t)]));
             }
             temporal_inverse(y, levels);
@@ -116,7 +117,7 @@ VideoEncoder::GroupCoding VideoEncoder::code_group(std::vector<Planes> x,
             for (int t = 0; t < n; ++t) {
                 if (t % 4 != 0 && t != n - 1) continue;
                 const size_t i = static_cast<size_t>(t);
-                domain_->synthesize(std::move(y[i]), vertices[i], image);
+                domain.synthesize(std::move(y[i]), vertices[i], image);
                 sum += std::min(psnr(pending_[i].frame, image).all, 100.0);
                 ++count;
             }
@@ -129,7 +130,7 @@ VideoEncoder::GroupCoding VideoEncoder::code_group(std::vector<Planes> x,
         // budget, which no single band may exceed.
         const size_t cap = static_cast<size_t>(budget) + 64;
         budget = std::max<int64_t>(budget - static_cast<int64_t>(group_size()), 0);
-        float step = fine_step_;
+        float step = fine_step;
         while (!code_at(step, cap) && step >= 0x1p-16f) step *= 0.25f;
         // The cut for the streams' share; each round corrects it by what the chunks around the
         // streams (plane counts of the slots left non-empty, size varints) really took.
@@ -165,11 +166,11 @@ VideoEncoder::GroupCoding VideoEncoder::code_group(std::vector<Planes> x,
     }
 
     // The decoder's images.
-    const std::vector<Planes> y = decode_lifted_group(*domain_, g.frames, n);
+    const std::vector<Planes> y = decode_lifted_group(domain, g.frames, n);
     g.images.resize(static_cast<size_t>(n));
     for (int t = 0; t < n; ++t) {
         const size_t i = static_cast<size_t>(t);
-        domain_->synthesize(y[i], vertices[i], g.images[i]);
+        domain.synthesize(y[i], vertices[i], g.images[i]);
         g.squared_error += squared_error(pending_[i].frame, g.images[i]);
     }
     g.bytes = group_size();
@@ -189,26 +190,43 @@ std::vector<EncodedFrame> VideoEncoder::code_lifted_group() {
         motion.push_back(p.motion);
         moved = moved || !p.motion.empty();
     }
-    GroupCoding g = code_group(std::move(x), vertices, motion, group_.motion);
+    // Which of two codings of the group to keep: the lower error at the rate (with --psnr: the
+    // smaller group at no lower quality).
+    const auto better = [&](const GroupCoding& a, const GroupCoding& b) {
+        return options_.kbps > 0 ? a.squared_error < b.squared_error
+                                 : a.bytes < b.bytes && a.squared_error <= 1.02 * b.squared_error;
+    };
+    GroupCoding g =
+        code_group(*domain_, group_, std::move(x), vertices, motion, group_.motion, fine_step_[0]);
     // Motion never hurts: the group is also coded on the static mesh, whose frames carry no
-    // motion, and the lower error at the rate (with --psnr: the smaller group at no lower
-    // quality) is kept.
+    // motion.
     if (moved) {
-        report(options_.progress, 0.8, "coding the group on the static mesh");
+        report(options_.progress, 0.7, "coding the group on the static mesh");
         const std::vector<Vec2>& rest = domain_->shape().mesh.vertices;
         std::vector<Planes> still(n);
         for (size_t t = 0; t < n; ++t) {
             domain_->analyze(pending_[t].frame, rest, still[t], options_.sampling,
                              options_.projection);
         }
-        GroupCoding s = code_group(std::move(still), std::vector<std::vector<Vec2>>(n, rest),
-                                   std::vector<std::vector<uint8_t>>(n), TwvMotion::none);
-        const bool better = options_.kbps > 0
-                                ? s.squared_error < g.squared_error
-                                : s.bytes < g.bytes && s.squared_error <= 1.02 * g.squared_error;
-        if (better) g = std::move(s);
+        GroupCoding s =
+            code_group(*domain_, group_, std::move(still), std::vector<std::vector<Vec2>>(n, rest),
+                       std::vector<std::vector<uint8_t>>(n), TwvMotion::none, fine_step_[0]);
+        if (better(s, g)) g = std::move(s);
     }
-    if (options_.kbps > 0) fine_step_ = g.next_fine_step;
+    if (options_.kbps > 0) fine_step_[0] = g.next_fine_step;
+    // Nor does the mesh: the group is also coded on the fixed grid.
+    if (grid_domain_) {
+        report(options_.progress, 0.85, "coding the group on the fixed grid");
+        std::vector<Planes> pixels(n);
+        for (size_t t = 0; t < n; ++t) {
+            grid_domain_->analyze(pending_[t].frame, {}, pixels[t], Sampling::point, {});
+        }
+        GroupCoding s = code_group(
+            *grid_domain_, grid_group_, std::move(pixels), std::vector<std::vector<Vec2>>(n),
+            std::vector<std::vector<uint8_t>>(n), TwvMotion::none, fine_step_[1]);
+        if (options_.kbps > 0) fine_step_[1] = s.next_fine_step;
+        if (better(s, g)) g = std::move(s);
+    }
 
     index_.group_offsets.push_back(written_);
     index_.group_first.push_back(g.group.first_frame);
@@ -224,7 +242,9 @@ std::vector<EncodedFrame> VideoEncoder::code_lifted_group() {
         EncodedFrame e = std::move(p.info);
         e.kind = TwvFrameKind::band;
         e.first_in_group = t == 0;
-        e.static_group = g.group.motion == TwvMotion::none && group_.motion == TwvMotion::tracked;
+        e.grid_group = g.group.transform != group_.transform;
+        e.static_group = !e.grid_group && g.group.motion == TwvMotion::none &&
+                         group_.motion == TwvMotion::tracked;
         e.bytes = static_cast<int64_t>(written_ - start);
         e.motion_bytes = static_cast<int64_t>(f.motion.size());
         e.psnr = psnr(p.frame, g.images[t]).all;

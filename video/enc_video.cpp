@@ -101,6 +101,16 @@ VideoEncoder::VideoEncoder(const std::string& path, int width, int height, doubl
     if (domain_->is_mesh() && group_.motion == TwvMotion::tracked) {
         motion_ = std::make_unique<MeshMotion>(domain_->shape().mesh, o.mesh_motion);
     }
+    if (domain_->is_mesh() && o.grid_groups && !o.low_delay) {
+        VideoEncodeOptions grid = o;
+        grid.transform = TwiTransform::grid97;
+        grid.levels = 0;
+        grid_group_ = choose_group(header_, grid);
+        grid_domain_ = group_domain(header_, grid_group_, true);
+        for (const CodingBand& b : grid_domain_->layout().bands) {
+            grid_group_.band_norms.push_back(static_cast<float>(b.norm));
+        }
+    }
     temporary_ = temporary_name(path);
     out_.open(temporary_, std::ios::binary | std::ios::trunc);
     if (!out_) throw Error(str(path, ": cannot write"));
@@ -153,17 +163,17 @@ int64_t VideoEncoder::frame_budget(bool intra, uint64_t spent) const {
 }
 
 // The coefficients a fully decoded frame holds when `x` is quantized with `base_step`.
-Planes VideoEncoder::requantized(const Planes& x, float base_step) const {
+Planes VideoEncoder::requantized(const CodingDomain& domain, const Planes& x,
+                                 float base_step) const {
     // Every plane known: the decoder's reconstruction of a fully decoded frame.
-    const DecodedPlanes d{.value = quantize_planes(x, base_step),
+    const DecodedPlanes d{.value = quantize_planes(domain, x, base_step),
                           .known = std::vector<std::vector<uint8_t>>(
-                              x.size(), std::vector<uint8_t>(domain_->size(), 0)),
+                              x.size(), std::vector<uint8_t>(domain.size(), 0)),
                           .complete = true};
-    Planes y = domain_->zeros();
+    Planes y = domain.zeros();
     for (size_t c = 0; c < y.size(); ++c) {
         const int channel = static_cast<int>(c);
-        dequantize(domain_->layout(), d, channel, domain_->band_steps(channel, base_step), false,
-                   y[c]);
+        dequantize(domain.layout(), d, channel, domain.band_steps(channel, base_step), false, y[c]);
     }
     return y;
 }
@@ -189,18 +199,19 @@ float VideoEncoder::calibrate_step(const Image& frame) {
     domain_->analyze(frame, vertices_, x, options_.sampling, options_.projection);
     Image image;
     return step_for_quality([&](float step) {
-        domain_->synthesize(requantized(x, step), vertices_, image);
+        domain_->synthesize(requantized(*domain_, x, step), vertices_, image);
         return psnr(frame, image).all;
     });
 }
 
 // Dead-zone quantization of every channel with the group's steps; with 4:2:0 chroma, the finest
 // detail of Cb and Cr is left out.
-IntPlanes VideoEncoder::quantize_planes(const Planes& r, float base_step) const {
-    const CodingLayout& layout = domain_->layout();
-    IntPlanes q(r.size(), std::vector<int32_t>(domain_->size(), 0));
+IntPlanes VideoEncoder::quantize_planes(const CodingDomain& domain, const Planes& r,
+                                        float base_step) const {
+    const CodingLayout& layout = domain.layout();
+    IntPlanes q(r.size(), std::vector<int32_t>(domain.size(), 0));
     for (size_t c = 0; c < r.size(); ++c) {
-        quantize(layout, r[c], domain_->band_steps(static_cast<int>(c), base_step), q[c]);
+        quantize(layout, r[c], domain.band_steps(static_cast<int>(c), base_step), q[c]);
         if (!options_.chroma_420 || c == 0 || c > 2) continue;
         for (const CodingBand& b : layout.bands) {
             if (!finest_band(layout, b)) continue;
@@ -223,7 +234,7 @@ std::vector<uint8_t> VideoEncoder::code_frame(const Image& frame, TwvFrame& f, i
     for (size_t c = 0; c < residual_.size(); ++c) {
         for (size_t i = 0; i < residual_[c].size(); ++i) residual_[c][i] -= coefficients_[c][i];
     }
-    const IntPlanes q = quantize_planes(residual_, f.base_step);
+    const IntPlanes q = quantize_planes(*domain_, residual_, f.base_step);
     f.planes = count_planes(domain_->layout(), const_spans(q));
     BitplaneOptions bo{.shifts = std::vector<int>(domain_->layout().bands.size(), 0)};
     if (budget >= 0) {

@@ -7,8 +7,9 @@
 // bit-plane stream. --kbps gives the group its share of the rate and cuts all its streams at one
 // rate-distortion slope (allocation.h), so the rate lands on the target; --psnr quantizes every
 // band with the step at which the group's mean PSNR reaches the target (measured on every
-// fourth frame), and keeps every bit-plane. Frames come
-// out of encode() when their group is coded (a group's length of latency).
+// fourth frame), and keeps every bit-plane. A tracked group is also coded on the static mesh, a
+// mesh group (grid_groups) on the fixed-grid 9/7 as well, and the best of the codings is kept.
+// Frames come out of encode() when their group is coded (a group's length of latency).
 //
 // With low_delay, a group starts with an intra frame and every later frame codes the delta
 // between its coefficients and the decoded coefficients of the frame before, closed loop: the
@@ -54,6 +55,9 @@ struct VideoEncodeOptions {
     // (30 dB gave 0.073 / 0.033 / 0.20 / 0.008; 34 dB 0.159 / 0.079 / 0.75 / 0.013).
     double quality = 33;
     double intra_weight = 4;  // low delay with a rate: an intra frame's share of a delta's
+    // Mesh path, lifted groups: each group is also coded on the fixed-grid 9/7 and kept there
+    // when that gives the lower error at the rate (with a quality target: the smaller group).
+    bool grid_groups = true;
     MeshMotionOptions mesh_motion = {};
     // How frames go on the mesh (project.h). The projection by default: with lifted groups it pays
     // at every rate (carphone, 96 frames, PSNR at 38 / 152 / 304 kbit/s: point 26.70 / 32.17 /
@@ -84,6 +88,7 @@ struct EncodedFrame {
     TwvFrameKind kind = TwvFrameKind::intra;
     bool first_in_group = false;
     bool static_group = false;  // a tracked clip's group coded better on the static mesh
+    bool grid_group = false;    // a mesh clip's group coded better on the fixed grid
     int64_t bytes = 0;          // everything written for it (group chunk included)
     int64_t motion_bytes = 0;   // vertex motion
     double psnr = 0;            // of reconstruction() against the input
@@ -141,11 +146,13 @@ class VideoEncoder {
         float next_fine_step = 1.0f / 16;
         double quality_target = 0;  // --psnr: the group's
     };
-    GroupCoding code_group(std::vector<Planes> x, const std::vector<std::vector<Vec2>>& vertices,
-                           const std::vector<std::vector<uint8_t>>& motion, TwvMotion kind);
+    GroupCoding code_group(const CodingDomain& domain, const TwvGroup& base, std::vector<Planes> x,
+                           const std::vector<std::vector<Vec2>>& vertices,
+                           const std::vector<std::vector<uint8_t>>& motion, TwvMotion kind,
+                           float fine_step);
     std::vector<EncodedFrame> code_lifted_group();
-    IntPlanes quantize_planes(const Planes& r, float base_step) const;
-    Planes requantized(const Planes& x, float base_step) const;
+    IntPlanes quantize_planes(const CodingDomain& domain, const Planes& r, float base_step) const;
+    Planes requantized(const CodingDomain& domain, const Planes& x, float base_step) const;
     float step_for_quality(const std::function<double(float)>& psnr_at);
     void write(const std::vector<uint8_t>& bytes);
     float calibrate_step(const Image& frame);
@@ -159,6 +166,9 @@ class VideoEncoder {
     TwvHeader header_;
     TwvGroup group_;
     std::shared_ptr<const CodingDomain> domain_;
+    // grid_groups: the fixed grid each group is also coded on.
+    std::shared_ptr<const CodingDomain> grid_domain_;
+    TwvGroup grid_group_;
     std::unique_ptr<MeshMotion> motion_;
     TwvIndex index_;
     uint64_t written_ = 0;
@@ -167,8 +177,8 @@ class VideoEncoder {
     int64_t largest_group_bytes_ = 0;  // a lifted group's coefficients, for finish()
     float base_step_ = 1.0f / 1024;
     // Lifted groups with a rate: the step the streams are coded at, refined by quarters until the
-    // group's cut falls inside them.
-    float fine_step_ = 1.0f / 16;
+    // group's cut falls inside them; on the mesh and on the fixed grid.
+    float fine_step_[2] = {1.0f / 16, 1.0f / 16};
     std::vector<Pending> pending_;
     double quality_target_ = 0;
     Planes coefficients_, residual_;

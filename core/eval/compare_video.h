@@ -50,6 +50,9 @@ struct RunContext {
     // Called as the run proceeds: fraction of this run done, and what it is doing.
     Progress progress;
     Sampling sampling = Sampling::fit;  // how our mesh methods put frames on the mesh
+    // The moving mesh codes every group on the mesh (else a group is also coded on the fixed-grid
+    // 9/7 and kept there when better; the static mesh method always keeps the mesh).
+    bool mesh_only = false;
 };
 
 struct VideoRow {

@@ -201,7 +201,7 @@ std::string results_csv(const std::vector<VideoRow>& rows) {
                         ",", r.ssim, ",", fps(r, r.encode_s), ",", fps(r, r.decode_s), ",",
                         fps(r, r.total_s), ",")
                   : std::string(",,,,,,,,,,");
-        out += str(r.setting, ",", r.tries, ",", csv_field(r.error), "\n");
+        out += str(csv_field(r.setting), ",", r.tries, ",", csv_field(r.error), "\n");
     }
     return out;
 }

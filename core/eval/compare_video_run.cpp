@@ -82,23 +82,35 @@ int64_t encode_ours(const RunContext& c, VideoMethod method, double target_bpp,
                                               : video::TwvMotion::none,
                                 .group = c.group,
                                 .chroma_420 = clip.chroma_420,
-                                .kbps = kbps_for(clip, target_bpp)};
+                                .kbps = kbps_for(clip, target_bpp),
+                                .grid_groups = method == VideoMethod::moving_mesh && !c.mesh_only};
     o.sampling = c.sampling;
-    row.setting = str("kbps ", std::lround(o.kbps * 100) / 100.0);
     FrameSource source(clip.path, c.source);
     video::VideoEncoder encoder(stream, clip.width, clip.height, clip.fps, o);
     Image frame;
     double seconds = 0;
+    int groups = 0, static_groups = 0, grid_groups = 0;
+    const auto count = [&](const std::vector<video::EncodedFrame>& done) {
+        for (const video::EncodedFrame& f : done) {
+            groups += f.first_in_group;
+            static_groups += f.first_in_group && f.static_group;
+            grid_groups += f.first_in_group && f.grid_group;
+        }
+    };
     for (int64_t n = 0; n < clip.frames && source.read(frame); ++n) {
         const auto start = Clock::now();
-        encoder.encode(frame);
+        count(encoder.encode(frame));
         seconds += seconds_since(start);
         c.progress(0.8 * (n + 1) / clip.frames, "encoding");
     }
     const auto start = Clock::now();
-    encoder.flush();
+    count(encoder.flush());
     const int64_t bytes = encoder.finish();
     row.encode_s = seconds + seconds_since(start);
+    // Which groups left the method's own domain (the moving mesh's choices).
+    row.setting = str("kbps ", std::lround(o.kbps * 100) / 100.0);
+    if (static_groups > 0) row.setting += str(", ", static_groups, "/", groups, " groups static");
+    if (grid_groups > 0) row.setting += str(", ", grid_groups, "/", groups, " groups grid");
     return bytes;
 }
 
