@@ -144,34 +144,56 @@ Morph::Morph(const Image& a, const Image& b, const Mesh& mesh_a, const Mesh& mes
     if (options_.schedule.kind == ScheduleKind::aware) measure_agreement();
 }
 
+namespace {
+
+// A grid of cells about two sample spacings of one level wide, which the level's values are
+// splatted onto and read back from with bilinear weights: a local mean over a few neighbours.
+struct LevelGrid {
+    double cell = 1;
+    int cols = 0, rows = 0;
+
+    LevelGrid(double width, double height, int32_t samples)
+        : cell(2 * std::sqrt(width * height / samples)),
+          cols(static_cast<int>(width / cell) + 2),
+          rows(static_cast<int>(height / cell) + 2) {}
+    size_t size() const { return static_cast<size_t>(cols) * rows; }
+    // f(node, weight) for the four nodes around p.
+    template <class F>
+    void corners(Vec2 p, F&& f) const {
+        const double gx = std::clamp(p.x / cell, 0.0, cols - 1.0 - 1e-9);
+        const double gy = std::clamp(p.y / cell, 0.0, rows - 1.0 - 1e-9);
+        const int x0 = static_cast<int>(gx), y0 = static_cast<int>(gy);
+        const double fx = gx - x0, fy = gy - y0;
+        const size_t k = static_cast<size_t>(y0) * cols + x0;
+        f(k, (1 - fx) * (1 - fy));
+        f(k + 1, fx * (1 - fy));
+        f(k + cols, (1 - fx) * fy);
+        f(k + cols + 1, fx * fy);
+    }
+};
+
+// How many coarser levels a place's correspondence is inherited from (measure_agreement).
+constexpr int kInheritedLevels = 2;
+
+}  // namespace
+
 void Morph::measure_agreement() {
-    // Each level's detail energies and inner products, splatted onto a grid of about two of the
-    // level's sample spacings with bilinear weights and read back the same way: a local mean
-    // over a few neighbours on the level, at the cost of two passes.
+    // Each level's detail energies and inner products, splatted onto the level's grid and read
+    // back: a local mean over a few neighbours on the level, at the cost of two passes.
     const int J = levels();
     const int32_t n = hierarchy_.num_samples(J);
     local_a_.assign(n, 0.0f);
     local_b_.assign(n, 0.0f);
     local_ab_.assign(n, 0.0f);
+    corresponding_.assign(n, 0.0f);
     const std::vector<Vec2> position = refine_positions(hierarchy_, va_, J);
+    // The two coarser levels' local energies and inner products, on their grids.
+    std::vector<std::pair<LevelGrid, std::vector<double>>> coarser;
     for (int level = 1; level <= J; ++level) {
         const int32_t begin = hierarchy_.num_samples(level - 1),
                       end = hierarchy_.num_samples(level);
-        const double cell = 2 * std::sqrt(static_cast<double>(width_) * height_ / end);
-        const int cols = static_cast<int>(width_ / cell) + 2;
-        const int rows = static_cast<int>(height_ / cell) + 2;
-        std::vector<double> grid(3 * static_cast<size_t>(cols) * rows, 0.0);
-        auto corners = [&](Vec2 p, auto&& f) {
-            const double gx = std::clamp(p.x / cell, 0.0, cols - 1.0 - 1e-9);
-            const double gy = std::clamp(p.y / cell, 0.0, rows - 1.0 - 1e-9);
-            const int x0 = static_cast<int>(gx), y0 = static_cast<int>(gy);
-            const double fx = gx - x0, fy = gy - y0;
-            const size_t k = 3 * (static_cast<size_t>(y0) * cols + x0), down = 3 * size_t(cols);
-            f(k, (1 - fx) * (1 - fy));
-            f(k + 3, fx * (1 - fy));
-            f(k + down, (1 - fx) * fy);
-            f(k + down + 3, fx * fy);
-        };
+        const LevelGrid grid(width_, height_, end);
+        std::vector<double> sums(3 * grid.size(), 0.0);
         for (int32_t i = begin; i < end; ++i) {
             double aa = 0, bb = 0, ab = 0;
             for (size_t c = 0; c < coeff_a_.size(); ++c) {
@@ -179,27 +201,39 @@ void Morph::measure_agreement() {
                 bb += double{coeff_b_[c][i]} * coeff_b_[c][i];
                 ab += double{coeff_a_[c][i]} * coeff_b_[c][i];
             }
-            corners(position[i], [&](size_t k, double w) {
-                grid[k] += w * aa;
-                grid[k + 1] += w * bb;
-                grid[k + 2] += w * ab;
+            grid.corners(position[i], [&](size_t k, double w) {
+                sums[3 * k] += w * aa;
+                sums[3 * k + 1] += w * bb;
+                sums[3 * k + 2] += w * ab;
             });
         }
         for (int32_t i = begin; i < end; ++i) {
             double aa = 0, bb = 0, ab = 0;
-            corners(position[i], [&](size_t k, double w) {
-                aa += w * grid[k];
-                bb += w * grid[k + 1];
-                ab += w * grid[k + 2];
+            grid.corners(position[i], [&](size_t k, double w) {
+                aa += w * sums[3 * k];
+                bb += w * sums[3 * k + 1];
+                ab += w * sums[3 * k + 2];
             });
             local_a_[i] = static_cast<float>(aa);
             local_b_[i] = static_cast<float>(bb);
             local_ab_[i] = static_cast<float>(ab);
+            // Detail corresponds where it does on its own level, or where this level and the two
+            // coarser ones correspond taken together: the fine texture of two faces does not
+            // correlate coefficient by coefficient where the features it sits on do.
+            for (const auto& [g, coarse] : coarser) {
+                g.corners(position[i], [&](size_t k, double w) {
+                    aa += w * coarse[3 * k];
+                    bb += w * coarse[3 * k + 1];
+                    ab += w * coarse[3 * k + 2];
+                });
+            }
+            const double pooled =
+                aa > 0 && bb > 0 ? std::clamp(ab / std::sqrt(aa * bb), 0.0, 1.0) : 0.0;
+            corresponding_[i] = static_cast<float>(
+                std::max(corresponding(correspondence(i)), corresponding(pooled)));
         }
-    }
-    corresponding_.assign(n, 0.0f);
-    for (int32_t i = hierarchy_.num_samples(0); i < n; ++i) {
-        corresponding_[i] = static_cast<float>(corresponding(correspondence(i)));
+        coarser.emplace_back(grid, std::move(sums));
+        if (coarser.size() > static_cast<size_t>(kInheritedLevels)) coarser.erase(coarser.begin());
     }
 }
 
