@@ -220,8 +220,9 @@ void Morph::measure_agreement() {
             // Detail corresponds where it does on its own level, or where this level and the two
             // coarser ones correspond taken together: the fine texture of two faces does not
             // correlate coefficient by coefficient where the features it sits on do.
-            for (const auto& [g, coarse] : coarser) {
-                g.corners(position[i], [&](size_t k, double w) {
+            for (const auto& level_sums : coarser) {
+                const std::vector<double>& coarse = level_sums.second;
+                level_sums.first.corners(position[i], [&](size_t k, double w) {
                     aa += w * coarse[3 * k];
                     bb += w * coarse[3 * k + 1];
                     ab += w * coarse[3 * k + 2];
