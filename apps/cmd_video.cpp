@@ -23,7 +23,8 @@ namespace fs = std::filesystem;
 
 struct EncodeArgs {
     std::string input, output, grid, motion = "tracked", size, pixel_format = "yuv420p", debug_dir;
-    double kbps = 0, quality = 0, density = 2.0, intra_weight = 4, fps = 0;
+    double kbps = 0, quality = 0, density = video::VideoEncodeOptions{}.density, intra_weight = 4,
+           fps = 0;
     int levels = 0, group = 32, motion_level = 0;
     int64_t max_frames = 0;
     std::string sampling = "fit";  // VideoEncodeOptions says why

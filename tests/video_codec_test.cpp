@@ -102,8 +102,10 @@ struct Pin {
 void expect_pins(std::span<const Pin> pins, bool low_delay, const std::string& path) {
     const std::vector<Image> frames = clip(small_pan());
     for (const Pin& pin : pins) {
+        // At density 2 (the default before 1.5): the pins follow the coder, not the default.
         const Coded coded = encode(frames, path,
                                    {.transform = pin.transform,
+                                    .density = 2.0,
                                     .group = 4,
                                     .low_delay = low_delay,
                                     .kbps = pin.kbps,
@@ -347,12 +349,14 @@ TEST(VideoCodec, QualityTargetsMetOrLoweredToTheMeshCeiling) {
     // 60 dB is beyond what sampling on the mesh and rendering back keeps: the target drops to
     // just below that ceiling instead of driving the step (and the rate) to the limit.
     const Coded capped =
-        encode(frames, path, {.low_delay = true, .quality = 60, .sampling = Sampling::point});
+        encode(frames, path,
+               {.density = 2.0, .low_delay = true, .quality = 60, .sampling = Sampling::point});
     EXPECT_LT(capped.frames[0].quality_target, 50);
     EXPECT_NEAR(capped.frames[0].psnr, capped.frames[0].quality_target, 0.3);
     // The projection without smoothness raises that ceiling (density 2: nearly exact).
     const Coded fit = encode(frames, path,
-                             {.low_delay = true,
+                             {.density = 2.0,
+                              .low_delay = true,
                               .quality = 60,
                               .sampling = Sampling::fit,
                               .projection = {.smoothness = 0}});
