@@ -54,9 +54,10 @@ struct VideoEncodeOptions {
     double kbps = 0;  // rate target; > 0 overrides `quality`
     // Target PSNR in dB, when kbps is 0: of each group's frames on average (lifted), or of each
     // group's intra frame (low delay). The default is near the rates x264's default (CRF 23)
-    // gives the shared clips, first 64 frames: carphone 0.126 bpp against x264's 0.119, chaplin
-    // 0.064 against 0.084, aerial 0.57 against 0.31, Big Buck Bunny at 640x360 0.010 against 0.066
-    // (30 dB gave 0.073 / 0.033 / 0.20 / 0.008; 34 dB 0.159 / 0.079 / 0.75 / 0.013).
+    // gives the shared clips, first 64 frames: carphone 0.121 bpp against x264's 0.119, chaplin
+    // 0.058 against 0.084, aerial 0.55 against 0.31, Big Buck Bunny at 640x360 0.0097 against
+    // 0.066 (density 1.5 and the grid candidate; at density 2 without it 0.126 / 0.064 / 0.57 /
+    // 0.010, and 30 dB gave 0.073 / 0.033 / 0.20 / 0.008, 34 dB 0.159 / 0.079 / 0.75 / 0.013).
     double quality = 33;
     double intra_weight = 4;  // low delay with a rate: an intra frame's share of a delta's
     // Mesh path, lifted groups: each group is also coded on the fixed-grid 9/7 and kept there
