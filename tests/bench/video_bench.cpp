@@ -45,10 +45,10 @@ const std::vector<Image>& clip() {
 
 VideoEncodeOptions options_for(int mode) {
     switch (mode) {
-        case 0:
+        case 0:  // the encoder's default: the grid is each group's candidate too
             return {.kbps = kKbps};
-        case 1:
-            return {.motion = TwvMotion::none, .kbps = kKbps};
+        case 1:  // the static mesh alone
+            return {.motion = TwvMotion::none, .kbps = kKbps, .grid_groups = false};
         case 2:
             return {.transform = TwiTransform::grid53, .kbps = kKbps};
         case 3:
