@@ -117,7 +117,8 @@ void run_encode(const EncodeArgs& a) {
     if (o.kbps > 0) o.quality = 0;  // the rate decides
     const int64_t total = a.max_frames > 0 ? a.max_frames : source.frame_count_estimate();
     ProgressBar bar;
-    int64_t n = 0, groups = 0, static_groups = 0, grid_groups = 0;
+    int64_t n = 0;
+    video::GroupCount groups;
     int64_t* given_count = nullptr;  // set below: frames given to the encoder
     if (total > 0) {
         o.progress = [&bar, &given_count, total](double done, const char* stage) {
@@ -150,9 +151,7 @@ void run_encode(const EncodeArgs& a) {
                           static_cast<long long>(f.number), o.quality, f.quality_target);
             warn(str("warning: ", a.input, ": ", line));
         }
-        groups += f.first_in_group;
-        static_groups += f.first_in_group && f.static_group;
-        grid_groups += f.first_in_group && f.grid_group;
+        groups.add(f);
         frames.push_back({{"frame", f.number},
                           {"kind", kind_name(f.kind)},
                           {"bytes", f.bytes},
@@ -196,9 +195,9 @@ void run_encode(const EncodeArgs& a) {
                         {"width", source.width()},
                         {"height", source.height()},
                         {"frames", n},
-                        {"groups", groups},
-                        {"static_groups", static_groups},
-                        {"grid_groups", grid_groups},
+                        {"groups", groups.groups},
+                        {"static_groups", groups.static_groups},
+                        {"grid_groups", groups.grid_groups},
                         {"bytes", bytes},
                         {"kbps", kbps},
                         {"bpp", bpp},
@@ -211,14 +210,14 @@ void run_encode(const EncodeArgs& a) {
         return;
     }
     std::string kept;  // which groups left the clip's own domain
-    if (static_groups > 0) kept += str(", ", static_groups, " on the static mesh");
-    if (grid_groups > 0) kept += str(", ", grid_groups, " on the fixed grid");
+    if (groups.static_groups > 0) kept += str(", ", groups.static_groups, " on the static mesh");
+    if (groups.grid_groups > 0) kept += str(", ", groups.grid_groups, " on the fixed grid");
     std::printf(
         "%s: %lld frames %dx%d in %lld groups%s, %lld bytes, %.1f kbit/s at %.3g fps "
         "(%.4f bpp), mean PSNR %.2f dB; %.1f frames/s\n",
         a.output.c_str(), static_cast<long long>(n), source.width(), source.height(),
-        static_cast<long long>(groups), kept.c_str(), static_cast<long long>(bytes), kbps, fps, bpp,
-        psnr_sum / n, n / seconds);
+        static_cast<long long>(groups.groups), kept.c_str(), static_cast<long long>(bytes), kbps,
+        fps, bpp, psnr_sum / n, n / seconds);
 }
 
 struct DecodeArgs {

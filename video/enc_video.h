@@ -104,6 +104,18 @@ struct EncodedFrame {
     Image reconstruction;       // the decoder's image of the frame
 };
 
+// The groups among coded frames, and those kept off the clip's own domain (a tracked clip's on
+// the static mesh, a mesh clip's on the fixed grid).
+struct GroupCount {
+    int64_t groups = 0, static_groups = 0, grid_groups = 0;
+    void add(const EncodedFrame& f) {
+        if (!f.first_in_group) return;
+        ++groups;
+        static_groups += f.static_group;
+        grid_groups += f.grid_group;
+    }
+};
+
 class VideoEncoder {
   public:
     // Writes to `path` through a temporary name; nothing appears there before finish(). Throws

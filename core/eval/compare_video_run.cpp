@@ -89,13 +89,9 @@ int64_t encode_ours(const RunContext& c, VideoMethod method, double target_bpp,
     video::VideoEncoder encoder(stream, clip.width, clip.height, clip.fps, o);
     Image frame;
     double seconds = 0;
-    int groups = 0, static_groups = 0, grid_groups = 0;
+    video::GroupCount groups;
     const auto count = [&](const std::vector<video::EncodedFrame>& done) {
-        for (const video::EncodedFrame& f : done) {
-            groups += f.first_in_group;
-            static_groups += f.first_in_group && f.static_group;
-            grid_groups += f.first_in_group && f.grid_group;
-        }
+        for (const video::EncodedFrame& f : done) groups.add(f);
     };
     for (int64_t n = 0; n < clip.frames && source.read(frame); ++n) {
         const auto start = Clock::now();
@@ -109,8 +105,12 @@ int64_t encode_ours(const RunContext& c, VideoMethod method, double target_bpp,
     row.encode_s = seconds + seconds_since(start);
     // Which groups left the method's own domain (the moving mesh's choices).
     row.setting = str("kbps ", std::lround(o.kbps * 100) / 100.0);
-    if (static_groups > 0) row.setting += str(", ", static_groups, "/", groups, " groups static");
-    if (grid_groups > 0) row.setting += str(", ", grid_groups, "/", groups, " groups grid");
+    if (groups.static_groups > 0) {
+        row.setting += str(", ", groups.static_groups, "/", groups.groups, " groups static");
+    }
+    if (groups.grid_groups > 0) {
+        row.setting += str(", ", groups.grid_groups, "/", groups.groups, " groups grid");
+    }
     return bytes;
 }
 
