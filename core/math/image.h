@@ -24,4 +24,22 @@ struct Image {
 
 Image make_image(int width, int height, int channels, SampleFormat format = SampleFormat::u8);
 
+// Calls f.template operator()<C>() with C = `channels` for 1 to 4, else C = 0 (any count): for
+// kernels that keep one pointer per channel in registers.
+template <class F>
+void with_channel_count(int channels, F&& f) {
+    switch (channels) {
+        case 1:
+            return f.template operator()<1>();
+        case 2:
+            return f.template operator()<2>();
+        case 3:
+            return f.template operator()<3>();
+        case 4:
+            return f.template operator()<4>();
+        default:
+            return f.template operator()<0>();
+    }
+}
+
 }  // namespace tesswave

@@ -199,18 +199,9 @@ void render_into(const RenderPlan& plan, std::span<const std::span<const float>>
     parallel_for(
         static_cast<int64_t>(quads),
         [&](int64_t begin, int64_t end) {
-            switch (channels) {
-                case 1:
-                    return render_quads<1>(plan, planes, outs.data(), first_entry, begin, end);
-                case 2:
-                    return render_quads<2>(plan, planes, outs.data(), first_entry, begin, end);
-                case 3:
-                    return render_quads<3>(plan, planes, outs.data(), first_entry, begin, end);
-                case 4:
-                    return render_quads<4>(plan, planes, outs.data(), first_entry, begin, end);
-                default:
-                    return render_quads<0>(plan, planes, outs.data(), first_entry, begin, end);
-            }
+            with_channel_count(static_cast<int>(channels), [&]<int C>() {
+                render_quads<C>(plan, planes, outs.data(), first_entry, begin, end);
+            });
         },
         16);
 }

@@ -89,18 +89,9 @@ std::vector<std::vector<float>> sample_bilinear(const Image& image,
     parallel_for(
         static_cast<int64_t>(positions.size()),
         [&](int64_t begin, int64_t end) {
-            switch (image.channels()) {
-                case 1:
-                    return sample_positions<1>(image, positions, out, begin, end);
-                case 2:
-                    return sample_positions<2>(image, positions, out, begin, end);
-                case 3:
-                    return sample_positions<3>(image, positions, out, begin, end);
-                case 4:
-                    return sample_positions<4>(image, positions, out, begin, end);
-                default:
-                    return sample_positions<0>(image, positions, out, begin, end);
-            }
+            with_channel_count(image.channels(), [&]<int C>() {
+                sample_positions<C>(image, positions, out, begin, end);
+            });
         },
         4096);
     return out;
