@@ -9,6 +9,7 @@
 
 #include "core/codec/twi_format.h"
 #include "core/eval/analysis.h"
+#include "frame_sink.h"
 
 namespace tesswave::cli {
 
@@ -123,13 +124,18 @@ inline CLI::Option* add_sampling_option(CLI::App* cmd, std::string& value) {
         ->check(CLI::IsMember({"point", "fit"}));
 }
 
-// --crf N, one meaning wherever frames go to a FrameSink: H.264's quality for .mp4/.mov output.
-inline CLI::Option* add_crf_option(CLI::App* cmd, int& value) {
-    return cmd
-        ->add_option("--crf", value,
-                     "H.264 quality of .mp4/.mov output: 0 lossless .. 51 (x264's scale)")
+// --crf N and --preset P, one meaning wherever frames go to a FrameSink: how .mp4/.mov output
+// is coded.
+inline void add_h264_options(CLI::App* cmd, H264Settings& value) {
+    cmd->add_option("--crf", value.crf,
+                    "H.264 quality of .mp4/.mov output: 0 lossless .. 51 (x264's scale)")
         ->capture_default_str()
         ->check(CLI::Range(0, 51));
+    cmd->add_option("--preset", value.preset,
+                    "x264 speed preset of .mp4/.mov output (slower: smaller files)")
+        ->capture_default_str()
+        ->check(CLI::IsMember({"ultrafast", "superfast", "veryfast", "faster", "fast", "medium",
+                               "slow", "slower", "veryslow"}));
 }
 
 // The analyze job, shared by `tesswave analyze` and the demo.

@@ -38,7 +38,8 @@ struct MorphArgs {
                                                                    schedule_file, shape, size;
     bool automatic = false, faces = false, preview = false, overwrite = false, json = false,
          loop = false;
-    int frames = 30, levels = 0, crf = 18;
+    int frames = 30, levels = 0;
+    H264Settings h264;
     double fps = 25, at = -1, density = 2.0;
     std::string sampling = "point";  // MorphOptions says why
 };
@@ -169,6 +170,7 @@ void run_morph(const MorphArgs& a) {
     check_morph_output(a);
     if (a.frames < 1 && a.at < 0) throw CLI::ValidationError("--frames", "must be at least 1");
     check_output(a.output, a.overwrite, {a.a, a.b});
+    if (a.automatic) morph::prepare_faces();  // the landmark model loads while images are read
     const Image ia = read_input(a.a), ib = read_input(a.b);
     nlohmann::json report = {{"a", a.a}, {"b", a.b}, {"output", a.output}};
     ProgressBar bar;
@@ -214,7 +216,7 @@ void run_morph(const MorphArgs& a) {
     if (a.at >= 0) {
         write_image(morph.frame(a.at, fo), a.output);
     } else {
-        FrameSink sink(a.output, morph.width(), morph.height(), a.fps, a.crf);
+        FrameSink sink(a.output, morph.width(), morph.height(), a.fps, a.h264);
         // --loop: A to B and back, without showing B or A twice in a row.
         const int total = a.loop && a.frames > 1 ? 2 * a.frames - 2 : a.frames;
         auto time_of = [&](int k) {
@@ -258,6 +260,7 @@ void run_compare_morph(const MorphArgs& a) {
         throw CLI::ValidationError("-o", str(a.output, ": the contact sheet is an image (.png)"));
     }
     check_output(a.output, a.overwrite, {a.a, a.b});
+    if (a.automatic) morph::prepare_faces();  // the landmark model loads while images are read
     const Image ia = read_input(a.a), ib = read_input(a.b);
     nlohmann::json report = {{"a", a.a}, {"b", a.b}, {"output", a.output}, {"at", a.at}};
     ProgressBar bar;
@@ -421,7 +424,7 @@ void add_morph_commands(CLI::App& app) {
         ->capture_default_str()
         ->check(CLI::Range(0.1, 1000.0));
     cmd->add_flag("--loop", a->loop, "A to B and back to A (2N - 2 frames)");
-    add_crf_option(cmd, a->crf);
+    add_h264_options(cmd, a->h264);
     cmd->add_option("--at", a->at, "Only the frame at this t, to an image")
         ->check(CLI::Range(0.0, 1.0));
     cmd->add_flag("--preview", a->preview, "Render from the coarse bands only (fast look-ups)");

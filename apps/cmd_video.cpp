@@ -223,7 +223,7 @@ void run_encode(const EncodeArgs& a) {
 struct DecodeArgs {
     std::string input, output, frames;
     int64_t max_pixels = 0;
-    int crf = 18;
+    H264Settings h264;
     bool overwrite = false, json = false;
 };
 
@@ -265,7 +265,7 @@ void run_decode(const DecodeArgs& a) {
         throw Error(decoder.damage().empty() ? str(a.input, ": the clip ends before frame ", first)
                                              : decoder.damage());
     }
-    FrameSink sink(a.output, h.width, h.height, h.fps(), a.crf);
+    FrameSink sink(a.output, h.width, h.height, h.fps(), a.h264);
     ProgressBar bar;
     const int64_t count = decoder.frame_count().value_or(-1);
     const int64_t end = count > 0 ? std::min(last, count - 1) : last;
@@ -437,7 +437,7 @@ void add_video_commands(CLI::App& app) {
         ->required();
     dec->add_option("--range", d->frames, "Frames A:B (inclusive; A: or :B open), or one frame");
     add_max_pixels_option(dec, d->max_pixels);
-    add_crf_option(dec, d->crf);
+    add_h264_options(dec, d->h264);
     dec->add_flag("-y,--overwrite", d->overwrite, "Overwrite the output");
     dec->add_flag("--json", d->json, "Print the result as JSON");
     dec->callback([d] { run_decode(*d); });

@@ -40,7 +40,8 @@ void FrameSink::check_path(const std::string& path, const std::string& option) {
                                    "(a path without an extension)"));
 }
 
-FrameSink::FrameSink(const std::string& path, int width, int height, double fps, int crf)
+FrameSink::FrameSink(const std::string& path, int width, int height, double fps,
+                     const H264Settings& h264)
     : path_(path), fps_(fps) {
     check_path(path);
     if (extension(path) == ".gif") return;
@@ -50,7 +51,8 @@ FrameSink::FrameSink(const std::string& path, int width, int height, double fps,
                                  : e == ".y4m" ? VideoCodec::rawvideo
                                                : VideoCodec::h264;
         video_ = std::make_unique<VideoWriter>(
-            path, width, height, VideoWriterOptions{.fps = fps, .codec = codec, .crf = crf});
+            path, width, height,
+            VideoWriterOptions{.fps = fps, .codec = codec, .crf = h264.crf, .preset = h264.preset});
         return;
     }
     const fs::path target = fs::path(path).lexically_normal();

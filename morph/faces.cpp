@@ -13,6 +13,8 @@
 #include <dlib/image_processing/frontal_face_detector.h>
 #include <dlib/image_transforms.h>
 
+#include <future>
+#include <memory>
 #include <mutex>
 #endif
 
@@ -46,23 +48,55 @@ namespace {
 
 struct Models {
     dlib::frontal_face_detector detector = dlib::get_frontal_face_detector();
-    dlib::shape_predictor predictor;
     std::mutex mutex;  // the detector keeps scratch buffers
 };
 
 Models& models() {
-    // Loaded once (about 100 MB, half a second); a failed load throws and is retried next call.
-    static Models* loaded = [] {
-        auto m = std::make_unique<Models>();
-        const std::string path = model_path();
-        try {
-            dlib::deserialize(path) >> m->predictor;
-        } catch (const std::exception& e) {
-            throw Error(str(path, ": not a dlib shape predictor (", e.what(), ")"));
-        }
-        return m.release();
-    }();
-    return *loaded;
+    static Models m;
+    return m;
+}
+
+// The landmark model (about 100 MB, half a second to read) loads on a worker thread from the
+// first prepare_faces() or find_face(), so that it overlaps reading the images and detecting the
+// faces. A failed load is reported by find_face and retried by the next call.
+struct Predictor {
+    std::mutex mutex;
+    std::shared_future<std::shared_ptr<const dlib::shape_predictor>> loading;
+};
+
+Predictor& predictor_state() {
+    static Predictor p;
+    return p;
+}
+
+std::shared_future<std::shared_ptr<const dlib::shape_predictor>> start_loading() {
+    Predictor& p = predictor_state();
+    std::lock_guard<std::mutex> lock(p.mutex);
+    if (!p.loading.valid()) {
+        p.loading = std::async(std::launch::async, [] {
+                        auto model = std::make_shared<dlib::shape_predictor>();
+                        const std::string path = model_path();
+                        try {
+                            dlib::deserialize(path) >> *model;
+                        } catch (const std::exception& e) {
+                            throw Error(str(path, ": not a dlib shape predictor (", e.what(), ")"));
+                        }
+                        return std::shared_ptr<const dlib::shape_predictor>(std::move(model));
+                    }).share();
+    }
+    return p.loading;
+}
+
+const dlib::shape_predictor& loaded_predictor() {
+    auto loading = start_loading();
+    try {
+        return *loading.get();
+    } catch (...) {
+        Predictor& p = predictor_state();
+        std::lock_guard<std::mutex> lock(p.mutex);
+        p.loading = {};  // the next call tries again
+        throw;
+    }
 }
 
 }  // namespace
@@ -78,8 +112,13 @@ std::string faces_missing() {
     return {};
 }
 
+void prepare_faces() {
+    if (faces_available()) start_loading();
+}
+
 std::optional<Face> find_face(const Image& image) {
     if (const std::string missing = faces_missing(); !missing.empty()) throw Error(missing);
+    start_loading();
     if (image.width < 16 || image.height < 16) return std::nullopt;
     Models& m = models();
     dlib::array2d<unsigned char> grey(image.height, image.width);
@@ -121,7 +160,7 @@ std::optional<Face> find_face(const Image& image) {
     const dlib::rectangle box(
         std::lround(largest->left() / scale), std::lround(largest->top() / scale),
         std::lround(largest->right() / scale), std::lround(largest->bottom() / scale));
-    const dlib::full_object_detection shape = m.predictor(grey, box);
+    const dlib::full_object_detection shape = loaded_predictor()(grey, box);
     Face face;
     face.found = static_cast<int>(faces.size());
     face.left = box.left();
@@ -149,6 +188,8 @@ std::string faces_missing() {
     return "this build has no face landmarks (dlib was not found: Debian packages libdlib-dev "
            "and libdlib-data)";
 }
+
+void prepare_faces() {}
 
 std::optional<Face> find_face(const Image&) { throw Error(faces_missing()); }
 

@@ -34,6 +34,12 @@ struct Face {
 inline constexpr int kFaceLandmarks = 68;
 inline constexpr int kForeheadPoints = 5;
 
+// Starts reading the landmark model on a worker thread, so that it overlaps reading the images
+// and detecting the faces (find_face starts it too, and waits for it only to place the
+// landmarks). Does nothing when faces are not available; a load that fails is reported by
+// find_face.
+void prepare_faces();
+
 // The largest frontal face of the image, or nothing when no face is found (images too small for
 // the detector, about 40 pixels a face side after one upsampling, find none). Throws Error when
 // faces are not available (faces_missing() says why) or the model cannot be read.

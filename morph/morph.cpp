@@ -45,13 +45,16 @@ double corresponding(double c) { return std::clamp((c - 0.1) / 0.3, 0.0, 1.0); }
 // The aware schedule's weights of A and B for detail that corresponds to the degree k, with local
 // energies aa and bb and inner product ab, at t: corresponding detail follows t with its energy
 // kept (the gain, at most 2); the rest is handed over with the weights (ha, hb) of its level.
-std::pair<float, float> aware_weights(double k, double aa, double bb, double ab, double t,
-                                      double ha, double hb) {
-    const double mixed = (1 - t) * (1 - t) * aa + t * t * bb + 2 * t * (1 - t) * ab;
-    const double target = (1 - t) * aa + t * bb;
-    const double gain = mixed > 0 ? std::min(2.0, std::sqrt(target / mixed)) : 1.0;
-    return {static_cast<float>(k * gain * (1 - t) + (1 - k) * ha),
-            static_cast<float>(k * gain * t + (1 - k) * hb)};
+// Float for the coefficients (a loop the compiler vectorizes), double for the residual band.
+template <class T>
+std::pair<T, T> aware_weights(T k, T aa, T bb, T ab, T t, T ha, T hb) {
+    const T u = 1 - t;
+    const T mixed = u * u * aa + t * t * bb + 2 * t * u * ab;
+    const T target = u * aa + t * bb;
+    // mixed is 0 only where the detail is 0 or exactly anti-correlated (k = 0): no branch, so
+    // that the loop vectorizes.
+    const T gain = std::min(T{2}, std::sqrt(target / std::max(mixed, T{1e-30})));
+    return {k * gain * u + (1 - k) * ha, k * gain * t + (1 - k) * hb};
 }
 
 // The hand-over weights of non-corresponding detail on a level whose curve is at h: (1 - h)^p
@@ -207,32 +210,40 @@ void Morph::measure_agreement() {
                 sums[3 * k + 2] += w * ab;
             });
         }
-        for (int32_t i = begin; i < end; ++i) {
-            double aa = 0, bb = 0, ab = 0;
-            grid.corners(position[i], [&](size_t k, double w) {
-                aa += w * sums[3 * k];
-                bb += w * sums[3 * k + 1];
-                ab += w * sums[3 * k + 2];
-            });
-            local_a_[i] = static_cast<float>(aa);
-            local_b_[i] = static_cast<float>(bb);
-            local_ab_[i] = static_cast<float>(ab);
-            // Detail corresponds where it does on its own level, or where this level and the two
-            // coarser ones correspond taken together: the fine texture of two faces does not
-            // correlate coefficient by coefficient where the features it sits on do.
-            for (const auto& level_sums : coarser) {
-                const std::vector<double>& coarse = level_sums.second;
-                level_sums.first.corners(position[i], [&](size_t k, double w) {
-                    aa += w * coarse[3 * k];
-                    bb += w * coarse[3 * k + 1];
-                    ab += w * coarse[3 * k + 2];
-                });
-            }
-            const double pooled =
-                aa > 0 && bb > 0 ? std::clamp(ab / std::sqrt(aa * bb), 0.0, 1.0) : 0.0;
-            corresponding_[i] = static_cast<float>(
-                std::max(corresponding(correspondence(i)), corresponding(pooled)));
-        }
+        // Read back per sample: independent, so shared among the cores.
+        parallel_for(
+            end - begin,
+            [&](int64_t from, int64_t to) {
+                for (int64_t i = begin + from; i < begin + to; ++i) {
+                    double aa = 0, bb = 0, ab = 0;
+                    grid.corners(position[i], [&](size_t k, double w) {
+                        aa += w * sums[3 * k];
+                        bb += w * sums[3 * k + 1];
+                        ab += w * sums[3 * k + 2];
+                    });
+                    local_a_[i] = static_cast<float>(aa);
+                    local_b_[i] = static_cast<float>(bb);
+                    local_ab_[i] = static_cast<float>(ab);
+                    // Detail corresponds where it does on its own level, or where this level and
+                    // the two coarser ones correspond taken together: the fine texture of two faces
+                    // does not correlate coefficient by coefficient where the features it sits on
+                    // do.
+                    for (const auto& level_sums : coarser) {
+                        const std::vector<double>& coarse = level_sums.second;
+                        level_sums.first.corners(position[i], [&](size_t k, double w) {
+                            aa += w * coarse[3 * k];
+                            bb += w * coarse[3 * k + 1];
+                            ab += w * coarse[3 * k + 2];
+                        });
+                    }
+                    const double pooled =
+                        aa > 0 && bb > 0 ? std::clamp(ab / std::sqrt(aa * bb), 0.0, 1.0) : 0.0;
+                    corresponding_[i] = static_cast<float>(
+                        std::max(corresponding(correspondence(static_cast<int32_t>(i))),
+                                 corresponding(pooled)));
+                }
+            },
+            4096);
         coarser.emplace_back(grid, std::move(sums));
         if (coarser.size() > static_cast<size_t>(kInheritedLevels)) coarser.erase(coarser.begin());
     }
@@ -252,25 +263,36 @@ Planes Morph::blended(double t) const {
     if (!(t >= 0 && t <= 1)) throw Error(str("morph: t = ", t, " is outside [0, 1]"));
     const int J = levels();
     const Schedule& s = options_.schedule;
-    Planes w = coeff_a_;
-    for (size_t c = 0; c < w.size(); ++c) {
-        for (int level = 0; level <= J; ++level) {
-            const int32_t begin = level == 0 ? 0 : hierarchy_.num_samples(level - 1);
-            const int32_t end = hierarchy_.num_samples(level == 0 ? 0 : level);
-            if (s.kind == ScheduleKind::aware && level > 0) {
-                if (c > 0) continue;  // all channels are blended with channel 0
-                const double p = 1 + (J > 1 ? (level - 1.0) / (J - 1) : 1.0);
-                const auto [ha, hb] = handover_weights(s.handover(level, J + 1, t), p);
-                for (int32_t i = begin; i < end; ++i) {
-                    const auto [wa, wb] = aware_weights(corresponding_[i], local_a_[i], local_b_[i],
-                                                        local_ab_[i], t, ha, hb);
-                    for (size_t k = 0; k < w.size(); ++k) {
-                        w[k][i] = wa * coeff_a_[k][i] + wb * coeff_b_[k][i];
-                    }
-                }
-                continue;
+    const size_t channels = coeff_a_.size();
+    Planes w(channels, std::vector<float>(coeff_a_[0].size()));
+    std::vector<float> wa, wb;  // aware: the weights of one level's coefficients
+    for (int level = 0; level <= J; ++level) {
+        const int32_t begin = level == 0 ? 0 : hierarchy_.num_samples(level - 1);
+        const int32_t end = hierarchy_.num_samples(level == 0 ? 0 : level);
+        if (s.kind == ScheduleKind::aware && level > 0) {
+            // All channels are blended with the same weights.
+            const double p = 1 + (J > 1 ? (level - 1.0) / (J - 1) : 1.0);
+            const auto [ha, hb] = handover_weights(s.handover(level, J + 1, t), p);
+            const float tf = static_cast<float>(t), haf = static_cast<float>(ha),
+                        hbf = static_cast<float>(hb);
+            wa.resize(static_cast<size_t>(end - begin));
+            wb.resize(wa.size());
+            for (int32_t i = begin; i < end; ++i) {
+                const auto [x, y] = aware_weights(corresponding_[i], local_a_[i], local_b_[i],
+                                                  local_ab_[i], tf, haf, hbf);
+                wa[i - begin] = x;
+                wb[i - begin] = y;
             }
-            const float x = static_cast<float>(s.band_weight(level, J + 1, t));
+            for (size_t c = 0; c < channels; ++c) {
+                const float* a = coeff_a_[c].data() + begin;
+                const float* b = coeff_b_[c].data() + begin;
+                float* out = w[c].data() + begin;
+                for (size_t i = 0; i < wa.size(); ++i) out[i] = wa[i] * a[i] + wb[i] * b[i];
+            }
+            continue;
+        }
+        const float x = static_cast<float>(s.band_weight(level, J + 1, t));
+        for (size_t c = 0; c < channels; ++c) {
             double energy = 0;
             for (int32_t i = begin; i < end; ++i) {
                 w[c][i] = (1 - x) * coeff_a_[c][i] + x * coeff_b_[c][i];
@@ -334,7 +356,8 @@ void Morph::add_residuals(const RenderPlan& plan, double t, int side, Image& out
                                  ab = local[2].ptr<float>()[i];
                     const double corr =
                         aa > 0 && bb > 0 ? std::clamp(ab / std::sqrt(aa * bb), 0.0, 1.0) : 0.0;
-                    const auto [wa, wb] = aware_weights(corresponding(corr), aa, bb, ab, t, ha, hb);
+                    const auto [wa, wb] =
+                        aware_weights(corresponding(corr), aa, bb, ab, t, double{ha}, double{hb});
                     for (int c = 0; c < out.channels(); ++c) {
                         out.planes[c][i] += wa * ra[c][i] + wb * rb[c][i];
                     }

@@ -71,6 +71,19 @@ else
 fi
 refuse "morph --crf 60" "$dir/bad.mp4" "$tesswave" morph "$s/pair_a.png" "$s/pair_b.png" \
     --crf 60 -o "$dir/bad.mp4"
+# --preset: x264's speed preset; at one CRF, slower presets make smaller files.
+check "morph --preset ultrafast" "$tesswave" morph "$s/pair_a.png" "$s/pair_b.png" \
+    --points-a "$s/pair_a.txt" --points-b "$s/pair_b.txt" --frames 6 --preset ultrafast \
+    -o "$dir/ultrafast.mp4"
+check "morph --preset slow" "$tesswave" morph "$s/pair_a.png" "$s/pair_b.png" \
+    --points-a "$s/pair_a.txt" --points-b "$s/pair_b.txt" --frames 6 --preset slow -o "$dir/slow.mp4"
+if (($(stat -c %s "$dir/slow.mp4") < $(stat -c %s "$dir/ultrafast.mp4"))); then
+    pass "--preset slow is smaller than --preset ultrafast"
+else
+    fail "--preset does not change the size"
+fi
+refuse "morph --preset turbo" "$dir/bad.mp4" "$tesswave" morph "$s/pair_a.png" "$s/pair_b.png" \
+    --preset turbo -o "$dir/bad.mp4"
 # --threads: the same frames on one core and on three.
 for t in 1 3; do
     check "morph --threads $t" "$tesswave" --threads $t morph "$s/pair_a.png" "$s/pair_b.png" \
