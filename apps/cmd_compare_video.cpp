@@ -35,7 +35,7 @@ struct CompareVideoArgs {
     std::vector<std::string> methods = {"moving", "static", "grid53", "grid97", "snow", "x264"};
     std::string output, size, pixel_format = "yuv420p";
     int64_t frames = 0, shown_frame = -1;
-    int group = 32;
+    int group = 33;
     double fps = 0;
     std::string sampling = "fit";  // VideoEncodeOptions says why
     bool mesh_only = false, overwrite = false, json = false;

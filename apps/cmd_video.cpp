@@ -25,7 +25,7 @@ struct EncodeArgs {
     std::string input, output, grid, motion = "tracked", size, pixel_format = "yuv420p", debug_dir;
     double kbps = 0, quality = 0, density = video::VideoEncodeOptions{}.density, intra_weight = 4,
            fps = 0;
-    int levels = 0, group = 32, motion_level = 0;
+    int levels = 0, group = 33, motion_level = 0;
     int64_t max_frames = 0;
     std::string sampling = "fit";  // VideoEncodeOptions says why
     std::string chroma = "auto";
@@ -398,7 +398,9 @@ void add_video_commands(CLI::App& app) {
         ->check(density_range());
     enc->add_option("-J,--levels", e->levels, "Mesh level J, or fixed-grid levels")
         ->check(CLI::Range(1, 12));
-    enc->add_option("-g,--group", e->group, "Intra period: frames per group (default 32)")
+    enc->add_option("-g,--group", e->group,
+                    "Intra period: frames per group (default 33: 2^5 + 1, so that every frame but "
+                    "the last lies between two others on every level of the temporal wavelet)")
         ->check(CLI::Range(1, 100000));
     enc->add_flag("--mesh-only", e->mesh_only,
                   "Code every group on the mesh (by default a group is also coded on the "

@@ -45,7 +45,7 @@ struct ClipInfo {
 struct RunContext {
     const ClipInfo* clip = nullptr;
     FrameSourceOptions source;
-    int group = 32;           // intra period of every method (snow's and x264's gop)
+    int group = 33;           // intra period of every method (snow's and x264's gop)
     std::string scratch_dir;  // where our .twv streams live while they are decoded
     // Called as the run proceeds: fraction of this run done, and what it is doing.
     Progress progress;
