@@ -6,10 +6,12 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <span>
 
 #include "core/math/error.h"
 #include "core/math/metrics.h"
+#include "core/math/parallel.h"
 #include "samples/sample_clip.h"
 #include "temp_dir.h"
 #include "video/dec_video.h"
@@ -199,6 +201,37 @@ TEST(VideoCodec, DecoderOutputEqualsEncoderReconstructionInEveryMode) {
         }
     }
     fs::remove(path);
+}
+
+// Lifted groups are decoded (bands) and rendered (frames) a frame per core: the same file and
+// the same frames on any thread count.
+TEST(VideoCodec, TheSameFileAndFramesOnAnyThreadCount) {
+    samples::SampleClipOptions o = small_pan();
+    o.frames = 11;  // groups of 4, 4 and 3: batches cut at the groups' ends
+    const std::vector<Image> frames = clip(o);
+    std::vector<char> first_file;
+    std::vector<Image> first_frames;
+    for (int threads : {1, 2, 3}) {
+        SCOPED_TRACE(::testing::Message() << threads << " threads");
+        set_thread_count(threads);
+        const std::string path = temp_path("threads.twv");
+        const Coded coded = encode(frames, path, {.group = 4, .kbps = 200});
+        std::ifstream in(path, std::ios::binary);
+        const std::vector<char> file{std::istreambuf_iterator<char>(in), {}};
+        const std::vector<Image> decoded = decode_all(path);
+        ASSERT_EQ(decoded.size(), frames.size());
+        for (size_t t = 0; t < frames.size(); ++t) {
+            expect_identical(decoded[t], coded.reconstructions[t]);
+        }
+        if (first_file.empty()) {
+            first_file = file;
+            first_frames = decoded;
+            continue;
+        }
+        EXPECT_EQ(file, first_file);
+        for (size_t t = 0; t < frames.size(); ++t) expect_identical(decoded[t], first_frames[t]);
+    }
+    set_thread_count(0);
 }
 
 }  // namespace

@@ -4,6 +4,7 @@
 
 #include "core/codec/byte_io.h"
 #include "core/math/error.h"
+#include "core/math/parallel.h"
 #include "core/math/strings.h"
 #include "mesh_motion.h"
 
@@ -272,7 +273,19 @@ bool VideoDecoder::next_frame(Image* out, bool decode) {
                     info_ = g.info[t];
                     vertices_ = g.vertices[t];
                     previous_ = t > 0 ? g.vertices[t - 1] : std::vector<Vec2>{};
-                    if (out) domain_->synthesize(g.coefficients[t], vertices_, *out);
+                    if (out) {
+                        if (t < g.rendered || t >= g.rendered + g.images.size()) {
+                            // This frame and the next ones, a frame per core.
+                            const size_t count =
+                                std::min(static_cast<size_t>(std::max(thread_count(), 1)),
+                                         g.ends.size() - t);
+                            g.rendered = t;
+                            g.images.resize(count);
+                            synthesize_frames(*domain_, std::span(g.coefficients).subspan(t, count),
+                                              std::span(g.vertices).subspan(t, count), g.images);
+                        }
+                        *out = std::move(g.images[t - g.rendered]);
+                    }
                     position_ = g.ends[t];
                     ++next_frame_;
                     return true;

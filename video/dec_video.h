@@ -94,6 +94,9 @@ class VideoDecoder {
         std::vector<uint64_t> ends;
         size_t next = 0;     // the next frame to hand out
         std::string damage;  // why the group ended early (after its received frames)
+        // Frames [rendered, rendered + images.size()), rendered together, one per core.
+        size_t rendered = 0;
+        std::vector<Image> images;
     };
     std::optional<Lifted> lifted_;
 

@@ -166,11 +166,11 @@ VideoEncoder::GroupCoding VideoEncoder::code_group(const CodingDomain& domain, c
     }
 
     // The decoder's images.
-    const std::vector<Planes> y = decode_lifted_group(domain, g.frames, n);
+    std::vector<Planes> y = decode_lifted_group(domain, g.frames, n);
     g.images.resize(static_cast<size_t>(n));
+    synthesize_frames(domain, y, vertices, g.images);
     for (int t = 0; t < n; ++t) {
         const size_t i = static_cast<size_t>(t);
-        domain.synthesize(y[i], vertices[i], g.images[i]);
         g.squared_error += squared_error(pending_[i].frame, g.images[i]);
     }
     g.bytes = group_size();

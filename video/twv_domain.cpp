@@ -1,8 +1,12 @@
 #include "twv_domain.h"
 
+#include <algorithm>
+#include <numeric>
+
 #include "core/codec/bitplane.h"
 #include "core/math/error.h"
 #include "core/math/grid_mesh.h"
+#include "core/math/parallel.h"
 #include "mesh_motion.h"
 #include "temporal.h"
 
@@ -51,9 +55,43 @@ std::vector<Planes> decode_lifted_group(const CodingDomain& domain, std::span<co
         throw Error("lifted group: more bands than frames");
     }
     std::vector<Planes> x(static_cast<size_t>(frames), domain.zeros());
-    for (size_t t = 0; t < bands.size(); ++t) add_decoded_residual(domain, bands[t], x[t]);
+    // Each band's stream is its own: the cores decode a share of the frames each. The low band
+    // is far larger than the high bands, so the shares are balanced by stream size (largest
+    // first, each to the least loaded share); which core decodes a band changes nothing.
+    const size_t shares =
+        std::max<size_t>(1, std::min(static_cast<size_t>(thread_count()), bands.size()));
+    std::vector<size_t> order(bands.size());
+    std::iota(order.begin(), order.end(), size_t{0});
+    std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) {
+        return bands[a].stream.size() > bands[b].stream.size();
+    });
+    std::vector<std::vector<size_t>> share(shares);
+    std::vector<size_t> load(shares, 0);
+    for (size_t t : order) {
+        const size_t k =
+            static_cast<size_t>(std::min_element(load.begin(), load.end()) - load.begin());
+        share[k].push_back(t);
+        load[k] += bands[t].stream.size() + 1;
+    }
+    parallel_for(static_cast<int64_t>(shares), [&](int64_t begin, int64_t end) {
+        for (auto k = static_cast<size_t>(begin); k < static_cast<size_t>(end); ++k) {
+            for (size_t t : share[k]) add_decoded_residual(domain, bands[t], x[t]);
+        }
+    });
     temporal_inverse(x, temporal_levels(frames));
     return x;
+}
+
+void synthesize_frames(const CodingDomain& domain, std::span<Planes> coefficients,
+                       std::span<const std::vector<Vec2>> vertices, std::span<Image> images) {
+    if (coefficients.size() < images.size() || vertices.size() < images.size()) {
+        throw Error("lifted group: fewer frames than images");
+    }
+    parallel_for(static_cast<int64_t>(images.size()), [&](int64_t begin, int64_t end) {
+        for (auto k = static_cast<size_t>(begin); k < static_cast<size_t>(end); ++k) {
+            domain.synthesize(std::move(coefficients[k]), vertices[k], images[k]);
+        }
+    });
 }
 
 }  // namespace tesswave::video

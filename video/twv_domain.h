@@ -33,4 +33,10 @@ void add_decoded_residual(const CodingDomain& domain, const TwvFrame& frame, Pla
 std::vector<Planes> decode_lifted_group(const CodingDomain& domain, std::span<const TwvFrame> bands,
                                         int frames);
 
+// Renders images.size() frames of a lifted group, the coefficients (moved from, as synthesize
+// takes them) and vertices of frame k at coefficients[k] and vertices[k] into images[k]: a frame
+// per core at a time, each frame's own kernels on its core (small frames split badly).
+void synthesize_frames(const CodingDomain& domain, std::span<Planes> coefficients,
+                       std::span<const std::vector<Vec2>> vertices, std::span<Image> images);
+
 }  // namespace tesswave::video
