@@ -275,10 +275,16 @@ bool VideoDecoder::next_frame(Image* out, bool decode) {
                     previous_ = t > 0 ? g.vertices[t - 1] : std::vector<Vec2>{};
                     if (out) {
                         if (t < g.rendered || t >= g.rendered + g.images.size()) {
-                            // This frame and the next ones, a frame per core.
+                            // This frame and the next ones, a frame per core, holding at
+                            // most 256 MiB of frames ahead (at least this one).
+                            const int64_t frame_bytes = int64_t{header_.width} * header_.height *
+                                                        header_.channels *
+                                                        static_cast<int64_t>(sizeof(float));
                             const size_t count =
-                                std::min(static_cast<size_t>(std::max(thread_count(), 1)),
-                                         g.ends.size() - t);
+                                std::min({static_cast<size_t>(std::max(thread_count(), 1)),
+                                          g.ends.size() - t,
+                                          static_cast<size_t>(std::max<int64_t>(
+                                              1, (int64_t{256} << 20) / frame_bytes))});
                             g.rendered = t;
                             g.images.resize(count);
                             synthesize_frames(*domain_, std::span(g.coefficients).subspan(t, count),
