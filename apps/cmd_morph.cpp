@@ -170,8 +170,10 @@ void run_morph(const MorphArgs& a) {
     check_morph_output(a);
     if (a.frames < 1 && a.at < 0) throw CLI::ValidationError("--frames", "must be at least 1");
     check_output(a.output, a.overwrite, {a.a, a.b});
-    if (a.automatic) morph::prepare_faces();  // the landmark model loads while images are read
     const Image ia = read_input(a.a), ib = read_input(a.b);
+    // The landmark model loads while the faces are detected (after the images: an unreadable
+    // image is reported at once, not after the model's half second).
+    if (a.automatic) morph::prepare_faces();
     nlohmann::json report = {{"a", a.a}, {"b", a.b}, {"output", a.output}};
     ProgressBar bar;
     // One bar over the whole job: matching, fitting, the morph's set-up, then the frames.
@@ -260,8 +262,10 @@ void run_compare_morph(const MorphArgs& a) {
         throw CLI::ValidationError("-o", str(a.output, ": the contact sheet is an image (.png)"));
     }
     check_output(a.output, a.overwrite, {a.a, a.b});
-    if (a.automatic) morph::prepare_faces();  // the landmark model loads while images are read
     const Image ia = read_input(a.a), ib = read_input(a.b);
+    // The landmark model loads while the faces are detected (after the images: an unreadable
+    // image is reported at once, not after the model's half second).
+    if (a.automatic) morph::prepare_faces();
     nlohmann::json report = {{"a", a.a}, {"b", a.b}, {"output", a.output}, {"at", a.at}};
     ProgressBar bar;
     const Progress progress = [&bar](double done, const char* stage) { bar.update(done, stage); };
