@@ -2,11 +2,14 @@
 // the choice between the tracked mesh, the static one and the fixed grid.
 #include <algorithm>
 #include <cmath>
+#include <functional>
+#include <optional>
 
 #include "allocation.h"
 #include "core/codec/bitplane.h"
 #include "core/math/error.h"
 #include "core/math/metrics.h"
+#include "core/math/parallel.h"
 #include "core/math/strings.h"
 #include "enc_video.h"
 #include "temporal.h"
@@ -38,7 +41,7 @@ VideoEncoder::GroupCoding VideoEncoder::code_group(const CodingDomain& domain, c
                                                    std::vector<Planes> x,
                                                    const std::vector<std::vector<Vec2>>& vertices,
                                                    const std::vector<std::vector<uint8_t>>& motion,
-                                                   TwvMotion kind, float fine_step) {
+                                                   TwvMotion kind, float fine_step) const {
     const int n = static_cast<int>(x.size());
     const int64_t first = pending_.front().info.number;
     const int levels = temporal_levels(n);
@@ -103,7 +106,7 @@ VideoEncoder::GroupCoding VideoEncoder::code_group(const CodingDomain& domain, c
     if (budget < 0) {
         // --psnr: the step at which the group's mean PSNR reaches the target, measured on every
         // fourth frame (and the last) of the fully decoded group.
-        const float step = step_for_quality([&](float base_step) {
+        const QualityStep quality = step_for_quality([&](float base_step) {
             std::vector<Planes> y(static_cast<size_t>(n));
             for (int t = 0; t < n; ++t) {
                 y[static_cast<size_t>(t)] =
@@ -123,8 +126,8 @@ VideoEncoder::GroupCoding VideoEncoder::code_group(const CodingDomain& domain, c
             }
             return sum / count;
         });
-        g.quality_target = quality_target_;
-        code_at(step, SIZE_MAX);
+        g.quality_target = quality.target;
+        code_at(quality.step, SIZE_MAX);
     } else {
         // Fine enough that the cut falls inside the streams; each stream is capped at the whole
         // budget, which no single band may exceed.
@@ -196,36 +199,51 @@ std::vector<EncodedFrame> VideoEncoder::code_lifted_group() {
         return options_.kbps > 0 ? a.squared_error < b.squared_error
                                  : a.bytes < b.bytes && a.squared_error <= 1.02 * b.squared_error;
     };
-    GroupCoding g =
-        code_group(*domain_, group_, std::move(x), vertices, motion, group_.motion, fine_step_[0]);
-    // Motion never hurts: the group is also coded on the static mesh, whose frames carry no
-    // motion.
-    if (moved) {
-        report(options_.progress, 0.7, "coding the group on the static mesh");
-        const std::vector<Vec2>& rest = domain_->shape().mesh.vertices;
-        std::vector<Planes> still(n);
-        for (size_t t = 0; t < n; ++t) {
-            domain_->analyze(pending_[t].frame, rest, still[t], options_.sampling,
-                             options_.projection);
-        }
-        GroupCoding s =
-            code_group(*domain_, group_, std::move(still), std::vector<std::vector<Vec2>>(n, rest),
-                       std::vector<std::vector<uint8_t>>(n), TwvMotion::none, fine_step_[0]);
-        if (better(s, g)) g = std::move(s);
-    }
-    if (options_.kbps > 0) fine_step_[0] = g.next_fine_step;
-    // Nor does the mesh: the group is also coded on the fixed grid.
+    // The codings: on the tracked mesh; on the static mesh, whose frames carry no motion (motion
+    // never hurts); on the fixed grid (nor does the mesh). They are independent, so each runs on
+    // a core of its own (its kernels serial there); the choice below is made in this order.
+    std::optional<GroupCoding> tracked, still, grid;
+    std::vector<std::function<void()>> codings;
+    codings.push_back([&] {
+        tracked = code_group(*domain_, group_, std::move(x), vertices, motion, group_.motion,
+                             fine_step_[0]);
+    });
     if (grid_domain_) {
-        report(options_.progress, 0.85, "coding the group on the fixed grid");
-        std::vector<Planes> pixels(n);
-        for (size_t t = 0; t < n; ++t) {
-            grid_domain_->analyze(pending_[t].frame, {}, pixels[t], Sampling::point, {});
-        }
-        GroupCoding s = code_group(
-            *grid_domain_, grid_group_, std::move(pixels), std::vector<std::vector<Vec2>>(n),
-            std::vector<std::vector<uint8_t>>(n), TwvMotion::none, fine_step_[1]);
-        if (options_.kbps > 0) fine_step_[1] = s.next_fine_step;
-        if (better(s, g)) g = std::move(s);
+        codings.push_back([&] {
+            std::vector<Planes> pixels(n);
+            for (size_t t = 0; t < n; ++t) {
+                grid_domain_->analyze(pending_[t].frame, {}, pixels[t], Sampling::point, {});
+            }
+            grid = code_group(*grid_domain_, grid_group_, std::move(pixels),
+                              std::vector<std::vector<Vec2>>(n),
+                              std::vector<std::vector<uint8_t>>(n), TwvMotion::none, fine_step_[1]);
+        });
+    }
+    if (moved) {
+        codings.push_back([&] {
+            const std::vector<Vec2>& rest = domain_->shape().mesh.vertices;
+            std::vector<Planes> frames(n);
+            for (size_t t = 0; t < n; ++t) {
+                domain_->analyze(pending_[t].frame, rest, frames[t], options_.sampling,
+                                 options_.projection);
+            }
+            still = code_group(
+                *domain_, group_, std::move(frames), std::vector<std::vector<Vec2>>(n, rest),
+                std::vector<std::vector<uint8_t>>(n), TwvMotion::none, fine_step_[0]);
+        });
+    }
+    parallel_for(
+        static_cast<int64_t>(codings.size()),
+        [&](int64_t begin, int64_t end) {
+            for (int64_t k = begin; k < end; ++k) codings[static_cast<size_t>(k)]();
+        },
+        1);
+    GroupCoding g = std::move(*tracked);
+    if (still && better(*still, g)) g = std::move(*still);
+    if (options_.kbps > 0) fine_step_[0] = g.next_fine_step;
+    if (grid) {
+        if (options_.kbps > 0) fine_step_[1] = grid->next_fine_step;
+        if (better(*grid, g)) g = std::move(*grid);
     }
 
     index_.group_offsets.push_back(written_);

@@ -181,16 +181,17 @@ Planes VideoEncoder::requantized(const CodingDomain& domain, const Planes& x,
 // The base step at which `psnr_at` (a falling function of the step) reaches the target PSNR:
 // bisection on log2 of the step. A target above what the finest step reaches (the mesh's
 // resampling caps the quality) is lowered to 0.25 dB below that ceiling, so that the rate stays
-// finite; quality_target_ says which was used.
-float VideoEncoder::step_for_quality(const std::function<double(float)>& psnr_at) {
+// finite; the result says which target was used.
+VideoEncoder::QualityStep VideoEncoder::step_for_quality(
+    const std::function<double(float)>& psnr_at) const {
     double lo = -14, hi = 0;  // log2 of the step
     const double ceiling = psnr_at(static_cast<float>(std::exp2(lo)));
-    quality_target_ = std::min(options_.quality, ceiling - 0.25);
+    const double target = std::min(options_.quality, ceiling - 0.25);
     for (int i = 0; i < 11; ++i) {
         const double mid = 0.5 * (lo + hi);
-        (psnr_at(static_cast<float>(std::exp2(mid))) >= quality_target_ ? lo : hi) = mid;
+        (psnr_at(static_cast<float>(std::exp2(mid))) >= target ? lo : hi) = mid;
     }
-    return static_cast<float>(std::exp2(lo));
+    return {static_cast<float>(std::exp2(lo)), target};
 }
 
 // Low delay: the base step whose intra image reaches the target PSNR.
@@ -198,10 +199,12 @@ float VideoEncoder::calibrate_step(const Image& frame) {
     Planes x;
     domain_->analyze(frame, vertices_, x, options_.sampling, options_.projection);
     Image image;
-    return step_for_quality([&](float step) {
+    const QualityStep q = step_for_quality([&](float step) {
         domain_->synthesize(requantized(*domain_, x, step), vertices_, image);
         return psnr(frame, image).all;
     });
+    quality_target_ = q.target;
+    return q.step;
 }
 
 // Dead-zone quantization of every channel with the group's steps; with 4:2:0 chroma, the finest

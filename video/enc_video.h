@@ -172,11 +172,16 @@ class VideoEncoder {
     GroupCoding code_group(const CodingDomain& domain, const TwvGroup& base, std::vector<Planes> x,
                            const std::vector<std::vector<Vec2>>& vertices,
                            const std::vector<std::vector<uint8_t>>& motion, TwvMotion kind,
-                           float fine_step);
+                           float fine_step) const;
     std::vector<EncodedFrame> code_lifted_group();
     IntPlanes quantize_planes(const CodingDomain& domain, const Planes& r, float base_step) const;
     Planes requantized(const CodingDomain& domain, const Planes& x, float base_step) const;
-    float step_for_quality(const std::function<double(float)>& psnr_at);
+    // The step for options_.quality, and the target used (lowered below a lower ceiling).
+    struct QualityStep {
+        float step = 1;
+        double target = 0;
+    };
+    QualityStep step_for_quality(const std::function<double(float)>& psnr_at) const;
     void write(const std::vector<uint8_t>& bytes);
     float calibrate_step(const Image& frame);
     double frame_share(bool intra) const;
