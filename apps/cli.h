@@ -134,8 +134,7 @@ inline void add_h264_options(CLI::App* cmd, H264Settings& value) {
     cmd->add_option("--preset", value.preset,
                     "x264 speed preset of .mp4/.mov output (slower: smaller files)")
         ->capture_default_str()
-        ->check(CLI::IsMember({"ultrafast", "superfast", "veryfast", "faster", "fast", "medium",
-                               "slow", "slower", "veryslow"}));
+        ->check(CLI::IsMember(std::vector<std::string>(kX264Presets.begin(), kX264Presets.end())));
 }
 
 // The analyze job, shared by `tesswave analyze` and the demo.

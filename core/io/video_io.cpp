@@ -267,10 +267,7 @@ void check_writer_options(const std::string& path, int width, int height,
     }
     if (!(o.fps > 0 && o.fps <= 1000)) throw Error(str(path, ": fps ", o.fps, " not in (0, 1000]"));
     if (o.crf < 0 || o.crf > 51) throw Error(str(path, ": crf ", o.crf, " is outside 0..51"));
-    static const char* const presets[] = {"ultrafast", "superfast", "veryfast", "faster",
-                                          "fast",      "medium",    "slow",     "slower",
-                                          "veryslow",  "placebo"};
-    if (std::find(std::begin(presets), std::end(presets), o.preset) == std::end(presets)) {
+    if (std::find(kX264Presets.begin(), kX264Presets.end(), o.preset) == kX264Presets.end()) {
         throw Error(str(path, ": unknown x264 preset '", o.preset, "'"));
     }
     const bool deep_ok = o.codec == VideoCodec::ffv1 && o.bit_depth == 16;

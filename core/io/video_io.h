@@ -13,6 +13,7 @@
 // libav's own logging is silenced (av_log_set_level(AV_LOG_QUIET), process-wide) on first use.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -34,6 +35,11 @@ enum class VideoCodec : uint8_t {
     // encoders; .y4m only. Odd sizes are padded as for h264.
     rawvideo,
 };
+
+// x264's speed presets, fastest first: what VideoWriterOptions::preset accepts.
+inline constexpr std::array<const char*, 10> kX264Presets = {
+    "ultrafast", "superfast", "veryfast", "faster",   "fast",
+    "medium",    "slow",      "slower",   "veryslow", "placebo"};
 
 struct VideoWriterOptions {
     double fps = 25;  // 0 < fps <= 1000; stored as the fraction av_d2q(fps, 1001000)
