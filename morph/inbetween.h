@@ -18,6 +18,11 @@ struct InbetweenOptions {
     // correspondences, occlusions), take the frame from dense optical flow (DIS, both ways)
     // as far as its warps agree better; needs frames of one size and channel count.
     bool flow_fallback = true;
+    // Small objects that move further than the flow sees (a thrown ball): blocks that neither
+    // the mesh nor the flow matched are searched for in the other frame, kept where both ways
+    // agree, and carried to the moment t; where they were, the other frame shows the ground.
+    // Needs flow_fallback.
+    bool fast_objects = true;
 };
 
 // The meshes of the pair: a cell-sized grid on f0 fitted to automatic correspondences on f1.
