@@ -133,7 +133,9 @@ void run_eval(const EvalArgs& a) {
         }
         std::vector<Image> results;
         results.push_back(dissolve(f0, f1));
-        const morph::PairMeshes pair = morph::automatic_pair(f0, f1, a.cell);
+        std::string note;
+        const morph::PairMeshes pair = morph::automatic_pair_or_rest(f0, f1, a.cell, &note);
+        if (!note.empty()) warn(str("note: ", q.name, ": ", note));
         for (morph::ScheduleKind k : {morph::ScheduleKind::linear, morph::ScheduleKind::bands,
                                       morph::ScheduleKind::sharp}) {
             const morph::MorphOptions o{.density = a.density, .schedule = {.kind = k}};

@@ -505,7 +505,9 @@ void add_morph_commands(CLI::App& app) {
         o.morph.schedule.kind = morph::parse_schedule_kind(b->schedule);
         if (!b->shape.empty())
             o.morph.schedule.shape = morph::parse_level_windows("0:" + b->shape, 1)[0];
-        const Image out = morph::inbetween(read_input(b->f0), read_input(b->f1), b->at, o);
+        std::string note;
+        const Image out = morph::inbetween(read_input(b->f0), read_input(b->f1), b->at, o, &note);
+        if (!note.empty()) warn(str("note: ", b->f0, " + ", b->f1, ": ", note));
         write_image(out, b->output);
         const double seconds = seconds_since(start);
         if (b->json) {
@@ -515,6 +517,7 @@ void add_morph_commands(CLI::App& app) {
                                                {"at", b->at},
                                                {"cell", o.cell},
                                                {"density", o.morph.density},
+                                               {"note", note},
                                                {"seconds", seconds}}
                                     .dump(2)
                                     .c_str());

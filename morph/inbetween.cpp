@@ -9,6 +9,7 @@
 #include "core/io/opencv_image.h"
 #include "core/math/grid_mesh.h"
 #include "core/math/sampling.h"
+#include "core/math/strings.h"
 
 namespace tesswave::morph {
 namespace {
@@ -295,30 +296,49 @@ Image with_fast_objects(const Image& f0, const Image& f1, double t, Image frame,
     return frame;
 }
 
+// A grid of about `cell`-pixel cells over the frame.
+Mesh cell_grid(const Image& frame, double cell) {
+    const int cols = std::max(1, static_cast<int>(std::lround(frame.width / cell)));
+    const int rows = std::max(1, static_cast<int>(std::lround(frame.height / cell)));
+    return grid_mesh(frame.width, frame.height, cols, rows);
+}
+
 }  // namespace
 
 PairMeshes automatic_pair(const Image& f0, const Image& f1, double cell) {
     const Matches m = auto_match(f0, f1);
-    const int cols = std::max(1, static_cast<int>(std::lround(f0.width / cell)));
-    const int rows = std::max(1, static_cast<int>(std::lround(f0.height / cell)));
-    return fitted_pair(grid_mesh(f0.width, f0.height, cols, rows), {m.a, m.b}, f1.width, f1.height);
+    return fitted_pair(cell_grid(f0, cell), {m.a, m.b}, f1.width, f1.height);
 }
 
-Image inbetween(const Image& f0, const Image& f1, double t, const InbetweenOptions& options) {
-    const PairMeshes pair = automatic_pair(f0, f1, options.cell);
+PairMeshes automatic_pair_or_rest(const Image& f0, const Image& f1, double cell,
+                                  std::string* note) {
+    if (f0.width != f1.width || f0.height != f1.height) return automatic_pair(f0, f1, cell);
+    try {
+        return automatic_pair(f0, f1, cell);
+    } catch (const Error& e) {
+        const Mesh rest = cell_grid(f0, cell);
+        if (note) *note = str(e.what(), "; the mesh stays at rest");
+        return {rest, rest, "a grid at rest"};
+    }
+}
+
+Image inbetween(const Image& f0, const Image& f1, double t, const InbetweenOptions& options,
+                std::string* note) {
+    const bool flow = options.flow_fallback && f0.width == f1.width && f0.height == f1.height &&
+                      f0.channels() == f1.channels();
+    // At rest, the flow and the fast objects can still make the frame.
+    const PairMeshes pair = flow ? automatic_pair_or_rest(f0, f1, options.cell, note)
+                                 : automatic_pair(f0, f1, options.cell);
     const Morph morph(f0, f1, pair.a, pair.b, options.morph);
     Image frame = morph.frame(t);
-    if (!options.flow_fallback || f0.width != f1.width || f0.height != f1.height ||
-        f0.channels() != f1.channels()) {
-        return frame;
-    }
+    if (!flow) return frame;
     return with_opencv_errors("inbetween", [&] {
         const Flows flows = dense_flows(f0, f1);
         cv::Mat to0, to1;
         Image out = with_flow_fallback(f0, f1, t, flows, frame, morph.warped(t, 0),
                                        morph.warped(t, 1), to0, to1);
         if (!options.fast_objects) return out;
-        const int radius = std::clamp(std::max(f0.width, f0.height) / 10, 16, 64);
+        const int radius = std::clamp(std::max(f0.width, f0.height) / 5, 16, 64);
         const FastMotion m01 = fast_motion(flows.a, flows.b, flows.f01, radius);
         const FastMotion m10 = fast_motion(flows.b, flows.a, flows.f10, radius);
         return with_fast_objects(f0, f1, t, std::move(out), filled(confirmed(m01, m10)),

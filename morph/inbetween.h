@@ -2,6 +2,8 @@
 // automatic correspondences, a grid mesh on the first frame fitted to them, and a morph.
 #pragma once
 
+#include <string>
+
 #include "core/math/image.h"
 #include "morph.h"
 #include "pair.h"
@@ -26,9 +28,18 @@ struct InbetweenOptions {
 };
 
 // The meshes of the pair: a cell-sized grid on f0 fitted to automatic correspondences on f1.
-// The frame at t is the morph's, with the flow fallback of InbetweenOptions.
 PairMeshes automatic_pair(const Image& f0, const Image& f1, double cell);
 
-Image inbetween(const Image& f0, const Image& f1, double t, const InbetweenOptions& options = {});
+// The same, except that for frames of one size where no mesh fits the correspondences (too few
+// of them, or motions no valid mesh follows: a small object moving fast over a plain scene),
+// both meshes are the grid at rest and `note` (optional) receives one line that says so.
+PairMeshes automatic_pair_or_rest(const Image& f0, const Image& f1, double cell,
+                                  std::string* note = nullptr);
+
+// The frame at t: the morph of the automatic pair, then the flow fallback and the fast objects
+// of InbetweenOptions. With the flow fallback (frames of one size and channel count), the pair is
+// automatic_pair_or_rest's: at rest, the flow and the fast objects make the frame.
+Image inbetween(const Image& f0, const Image& f1, double t, const InbetweenOptions& options = {},
+                std::string* note = nullptr);
 
 }  // namespace tesswave::morph
