@@ -150,6 +150,15 @@ void render_quads(const RenderPlan& plan, std::span<const std::span<const float>
             float* __restrict g = local.data() + c * grid_size;
             for (int32_t k = 0; k < grid_size; ++k) g[k] = x[ids[k]];
         }
+        // The next quad's grid values are fetched into the cache while this quad's pixels are
+        // interpolated: the staging gather above is otherwise most of the time (cache misses).
+        if (q + 1 < end) {
+            const int32_t* next = ids + grid_size;
+            for (size_t c = 0; c < channels; ++c) {
+                const float* x = planes[c].data();
+                for (int32_t k = 0; k < grid_size; ++k) __builtin_prefetch(x + next[k]);
+            }
+        }
         size_t i = first_entry[q];
         for (int32_t run = plan.quad_runs[q]; run < plan.quad_runs[q + 1]; ++run) {
             const int32_t start = plan.run_start[run], length = plan.run_length[run];
