@@ -411,6 +411,15 @@ Matches match(const Image& a, const Image& b, const AutoMatchOptions& options) {
     report(0.15, "flow");
     const Field field = dense_field(a8, b8, prior, options);
 
+    if (options.flow && prior == kIdentity && a.width == b.width && a.height == b.height) {
+        auto copy = [](const cv::Mat& f, std::vector<float>& out) {
+            const cv::Mat flat = f.isContinuous() ? f : f.clone();
+            out.assign(flat.ptr<float>(), flat.ptr<float>() + flat.total() * 2);
+        };
+        *options.flow = {a.width, a.height, {}, {}};
+        copy(field.forward, options.flow->forward);
+        copy(field.backward, options.flow->backward);
+    }
     report(0.9, "matches");
     Collector collect{Spacing(a.width, a.height), Spacing(b.width, b.height),
                       static_cast<double>(b.width) / a.width,

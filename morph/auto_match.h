@@ -21,6 +21,13 @@
 
 namespace tesswave::morph {
 
+// Dense flows between two images of one size, per pixel, row-major (dx, dy) pairs.
+struct DenseFlow {
+    int width = 0, height = 0;    // 0: no flows
+    std::vector<float> forward;   // per pixel of A: where it is in B, relative
+    std::vector<float> backward;  // per pixel of B: where it is in A, relative
+};
+
 struct AutoMatchOptions {
     int grid_step = 8;          // flow samples every grid_step pixels of A
     double fb_tolerance = 1.0;  // forward-backward distance (pixels of A) a sample may have
@@ -34,6 +41,10 @@ struct AutoMatchOptions {
     // The zero-mean normalized cross-correlation of 9x9 windows a match needs.
     double min_similarity = 0.5;
     Progress progress = {};  // optional
+    // Optional: receives the dense flows when A and B have one size and needed no prior (the
+    // flows are then between the images themselves); left empty otherwise. The forward flow runs
+    // to full resolution, the backward one stops a pyramid level short.
+    DenseFlow* flow = nullptr;
 };
 
 struct Matches {
