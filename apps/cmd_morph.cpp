@@ -120,6 +120,10 @@ Points correspondences(const MorphArgs& a, const Image& ia, const Image& ib, nlo
                              {"rejected_ransac", m.rejected_ransac}};
         c = {m.a, m.b};
         p.landmarks = false;
+        if (c.a.size() < 3) {
+            throw Error(str("automatic matching found ", c.a.size(),
+                            " correspondences between the images; a mesh needs at least 3"));
+        }
     } else if (!a.automatic) {
         c = {read_points(a.points_a), read_points(a.points_b)};
         report["snapped_to_border"] = morph::snap_to_border(c.a, ia.width, ia.height) +
@@ -181,10 +185,24 @@ void run_morph(const MorphArgs& a) {
     const int frames = a.at >= 0 ? 1 : a.frames;
     const double setup = 0.5 * 10 / (10.0 + frames);  // the set-up's share, about 10 frames' worth
     bar.update(0.0, "correspondences");
-    const Points points =
-        correspondences(a, ia, ib, report, progress_range(progress, 0, 0.6 * setup));
-    bar.update(0.6 * setup, "meshes");
-    const morph::PairMeshes pair = pair_meshes(a, points, ia, ib);
+    Points points;
+    morph::PairMeshes pair;
+    try {
+        points = correspondences(a, ia, ib, report, progress_range(progress, 0, 0.6 * setup));
+        bar.update(0.6 * setup, "meshes");
+        pair = pair_meshes(a, points, ia, ib);
+    } catch (const Error& e) {
+        // Automatic matching found too little for a mesh (unrelated images, a cut): the shapes
+        // stay as they are and the bands still blend on their schedule. Faces, point files and
+        // triangles are the user's word, and their errors stand.
+        if (!a.automatic || a.faces || report.contains("faces") || !a.triangles.empty()) throw;
+        const std::string spec = a.mesh.empty() || a.mesh == "triangulation" ? "grid" : a.mesh;
+        pair = morph::rest_pair(generated_mesh(spec, ia.width, ia.height), ib.width, ib.height);
+        points = {};
+        report["at_rest"] = e.what();
+        warn(str("note: ", a.a, " + ", a.b, ": ", e.what(),
+                 "; no motion: the morph dissolves them band by band"));
+    }
     report["correspondences"] = points.c.a.size();
     report["mesh"] = pair.description;
     report["dropped_points"] = pair.dropped;

@@ -323,9 +323,8 @@ PairMeshes automatic_pair_or_rest(const Image& f0, const Image& f1, double cell,
     try {
         return automatic_pair(f0, f1, cell, flow);
     } catch (const Error& e) {
-        const Mesh rest = cell_grid(f0, cell);
         if (note) *note = str(e.what(), "; the mesh stays at rest");
-        return {rest, rest, "a grid at rest"};
+        return rest_pair(cell_grid(f0, cell), f1.width, f1.height);
     }
 }
 

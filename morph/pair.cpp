@@ -327,4 +327,11 @@ PairMeshes fitted_pair(const Mesh& mesh_a, const Correspondences& c, double wb, 
     return pair;
 }
 
+PairMeshes rest_pair(const Mesh& mesh_a, double wb, double hb) {
+    std::vector<Vec2> vb = mesh_a.vertices;
+    for (Vec2& v : vb) v = {v.x * wb / mesh_a.width, v.y * hb / mesh_a.height};
+    return {mesh_a, with_vertices(mesh_a, std::move(vb), wb, hb),
+            str(mesh_a.num_faces(), "-face mesh at rest")};
+}
+
 }  // namespace tesswave::morph

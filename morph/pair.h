@@ -61,4 +61,8 @@ PairMeshes triangles_pair(const Correspondences& c, const std::vector<std::array
 PairMeshes fitted_pair(const Mesh& mesh_a, const Correspondences& c, double width_b,
                        double height_b);
 
+// No motion: `mesh_a` on A and the same mesh scaled to B's size, for images between which no
+// correspondences were found (the morph is then a dissolve on the band schedule).
+PairMeshes rest_pair(const Mesh& mesh_a, double width_b, double height_b);
+
 }  // namespace tesswave::morph

@@ -51,6 +51,19 @@ if ((status == 1)) && [[ ! -e $dir/faces.png ]] && (($(wc -l <"$dir/err.txt") ==
 else
     fail "--faces without a face: exit $status: $(cat "$dir/err.txt")"
 fi
+# Images with nothing in common (a flat one): no mesh can follow them, so the morph keeps the
+# shapes at rest, dissolves band by band, and says so; it is not refused.
+{
+    printf 'P6\n96 64\n255\n'
+    head -c $((96 * 64 * 3)) /dev/zero | tr '\0' '\200'
+} >"$dir/flat.ppm"
+check "--auto, nothing in common" "$tesswave" morph "$s/pair_a.png" "$dir/flat.ppm" --at 0.5 \
+    -o "$dir/rest.png"
+if [[ -s $dir/rest.png ]] && grep -q "no motion: the morph dissolves them band by band" "$dir/err.txt"; then
+    pass "a morph at rest, and the note says why: $(tail -n 1 "$dir/err.txt")"
+else
+    fail "no morph at rest: $(cat "$dir/err.txt")"
+fi
 # --loop: A to B and back in 2N - 2 frames, PNG names with a zero-padded counter; --crf for MP4.
 check "morph --loop to PNG frames" "$tesswave" morph "$s/pair_a.png" "$s/pair_b.png" \
     --points-a "$s/pair_a.txt" --points-b "$s/pair_b.txt" --frames 4 --loop -o "$dir/loop"
