@@ -186,6 +186,12 @@ void run_encode(const EncodeArgs& a) {
                  " its container declares (a cut file?)"));
     }
     const int64_t bytes = encoder->finish();
+    if (encoder->padding() > 0) {
+        warn(str("note: ", a.output, ": the clip codes to ", bytes - encoder->padding(), " bytes; ",
+                 encoder->padding(),
+                 " bytes of padding let a decoder grant its decoding work (a tiny file may "
+                 "only claim a little)"));
+    }
     const double seconds = seconds_since(start);
     const double fps = encoder->header().fps();
     const double kbps = bytes * 8.0 / 1000 / (n / fps);
@@ -199,6 +205,7 @@ void run_encode(const EncodeArgs& a) {
                         {"static_groups", groups.static_groups},
                         {"grid_groups", groups.grid_groups},
                         {"bytes", bytes},
+                        {"padding_bytes", encoder->padding()},
                         {"kbps", kbps},
                         {"bpp", bpp},
                         {"psnr", psnr_sum / n},

@@ -307,6 +307,10 @@ bool VideoDecoder::next_frame(Image* out, bool decode) {
             std::optional<Chunk> chunk = read_chunk(position_);
             if (!chunk) return false;
             if (chunk->tag == 'I') return false;  // an index whose trailer was cut off
+            if (chunk->tag == 'P') {              // padding
+                position_ = chunk->end;
+                continue;
+            }
             if (chunk->tag == 'G') {
                 start_group(*chunk);
                 position_ = chunk->end;

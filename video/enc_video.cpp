@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numeric>
 
 #include "core/codec/bitplane.h"
@@ -393,28 +394,34 @@ int64_t VideoEncoder::finish() {
     if (finished_) throw Error("the encoder has finished");
     if (frames_ == 0) throw Error(str(path_, ": no frames to write"));
     flush();
+    // A clip that codes to very few bytes (flat or still content) would claim more decoding work
+    // than its size lets a decoder grant (TwvLimits), so it gets a padding chunk of zeros, the
+    // fewest bytes that make the file decodable within the default limits.
+    const std::vector<uint8_t> index = twv_chunk('I', write_twv_index(index_));
+    const int64_t needed = twv_file_bytes_needed(int64_t{header_.width} * header_.height,
+                                                 coded_frames_, largest_group_bytes_);
+    if (needed == std::numeric_limits<int64_t>::max()) {
+        throw Error(
+            str(path_, ": a group of ", largest_group_bytes_,
+                " bytes of coefficients is beyond the limits (shorten the groups with -g)"));
+    }
+    const int64_t short_by =
+        needed - static_cast<int64_t>(written_ + index.size()) - kTwvTrailerBytes;
+    if (short_by > 0) {
+        // The chunk's tag, size and CRC count too: the smallest payload that makes up short_by
+        // (a chunk is at least 6 bytes).
+        size_t payload = static_cast<size_t>(short_by);
+        while (payload > 0 && twv_chunk('P', std::vector<uint8_t>(payload - 1)).size() >=
+                                  static_cast<size_t>(short_by)) {
+            --payload;
+        }
+        const std::vector<uint8_t> padding = twv_chunk('P', std::vector<uint8_t>(payload));
+        write(padding);
+        padding_ = static_cast<int64_t>(padding.size());
+    }
     const uint64_t index_offset = written_;
-    write(twv_chunk('I', write_twv_index(index_)));
+    write(index);
     write(twv_trailer(index_offset));
-    const int64_t needed = twv_bytes_needed(int64_t{header_.width} * header_.height);
-    if (static_cast<int64_t>(written_) < needed) {
-        throw Error(str(path_, ": the file would be ", written_, " bytes; one with ", header_.width,
-                        "x", header_.height, " frames needs at least ", needed,
-                        " to be decodable within the default limits (raise the rate)"));
-    }
-    // The decoder's work and group memory are weighed against the file's size as well.
-    const int64_t bytes = static_cast<int64_t>(written_);
-    if (coded_frames_ * header_.width * header_.height > twv_work_allowed(bytes)) {
-        throw Error(str(path_, ": the file would be ", written_, " bytes, too few for ",
-                        coded_frames_, " frames of ", header_.width, "x", header_.height,
-                        " to be decodable within the default limits (raise the rate)"));
-    }
-    if (largest_group_bytes_ > twv_group_bytes_allowed(bytes)) {
-        throw Error(str(path_, ": the file would be ", written_, " bytes, too few for a group of ",
-                        largest_group_bytes_,
-                        " bytes of coefficients to be decodable within the default limits (raise "
-                        "the rate, or shorten the groups with -g)"));
-    }
     out_.close();
     if (!out_) throw Error(str(path_, ": write failed"));
     commit_temporary(temporary_, path_);

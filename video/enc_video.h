@@ -143,6 +143,8 @@ class VideoEncoder {
 
     // Writes the index and the trailer and renames the file into place. Returns its size.
     int64_t finish();
+    // Of the finished file: the padding a very compressible clip needed (TwvLimits), in bytes.
+    int64_t padding() const { return padding_; }
     const TwvHeader& header() const { return header_; }
     const TwvGroup& group() const { return group_; }
 
@@ -203,6 +205,7 @@ class VideoEncoder {
     int64_t frames_ = 0, in_group_ = 0, group_length_ = 0;
     int64_t coded_frames_ = 0;         // frames whose chunks are written
     int64_t largest_group_bytes_ = 0;  // a lifted group's coefficients, for finish()
+    int64_t padding_ = 0;
     float base_step_ = 1.0f / 1024;
     // Lifted groups with a rate: the step the streams are coded at, refined by quarters until the
     // group's cut falls inside them; on the mesh and on the fixed grid.

@@ -53,6 +53,22 @@ int64_t twv_group_bytes_allowed(int64_t file_bytes, const TwvLimits& limits) {
                     weighed(limits.free_group_bytes, limits.group_bytes_per_byte, file_bytes));
 }
 
+int64_t twv_file_bytes_needed(int64_t pixels, int64_t frames, int64_t group_bytes,
+                              const TwvLimits& limits) {
+    constexpr int64_t kMax = std::numeric_limits<int64_t>::max();
+    if (group_bytes > limits.max_group_bytes) return kMax;
+    // The fewest bytes b with free + b per_byte >= need.
+    auto fewest = [&](int64_t need, int64_t free, int64_t per_byte) -> int64_t {
+        if (need <= free) return 0;
+        if (per_byte <= 0) return kMax;
+        return (need - free + per_byte - 1) / per_byte;
+    };
+    const int64_t work = frames > 0 && pixels > kMax / frames ? kMax : frames * pixels;
+    return std::max({twv_bytes_needed(pixels, limits),
+                     fewest(work, limits.free_work_pixels, limits.work_pixels_per_byte),
+                     fewest(group_bytes, limits.free_group_bytes, limits.group_bytes_per_byte)});
+}
+
 std::vector<uint8_t> write_twv_header(const TwvHeader& h) {
     ByteWriter w;
     for (uint8_t b : kTwvMagic) w.u8(b);

@@ -120,6 +120,12 @@ std::string twv_group_size_problem(const TwvGroup& group, const TwvHeader& heade
 // The bytes a .twv file needs so that `limits` let it have frames of `pixels` pixels.
 int64_t twv_bytes_needed(int64_t pixels, const TwvLimits& limits = {});
 
+// The bytes a .twv file needs so that `limits` let it have frames of `pixels` pixels, decode
+// `frames` of them, and hold lifted groups of `group_bytes` bytes of coefficients; the largest
+// int64_t when no size will do (a group above max_group_bytes).
+int64_t twv_file_bytes_needed(int64_t pixels, int64_t frames, int64_t group_bytes,
+                              const TwvLimits& limits = {});
+
 // The bytes one frame's coefficients take in memory (all channels).
 int64_t twv_frame_coefficient_bytes(const TwvGroup& group, const TwvHeader& header);
 
@@ -135,7 +141,9 @@ std::vector<uint8_t> write_twv_header(const TwvHeader& header);
 TwvHeader read_twv_header(std::span<const uint8_t> file, const std::string& name, size_t& used,
                           const TwvLimits& limits = {});
 
-// A whole chunk (tag, size, payload, CRC).
+// A whole chunk (tag, size, payload, CRC). Tags: 'G' group, 'F' frame, 'I' index, 'P' padding
+// (zeros a decoder skips: what a very compressible clip adds so that its decoding stays within
+// the work its size may claim).
 std::vector<uint8_t> twv_chunk(uint8_t tag, std::span<const uint8_t> payload);
 
 std::vector<uint8_t> write_twv_group(const TwvGroup& group);
