@@ -524,7 +524,13 @@ void add_morph_commands(CLI::App& app) {
         if (!b->shape.empty())
             o.morph.schedule.shape = morph::parse_level_windows("0:" + b->shape, 1)[0];
         std::string note;
-        const Image out = morph::inbetween(read_input(b->f0), read_input(b->f1), b->at, o, &note);
+        const Image f0 = read_input(b->f0), f1 = read_input(b->f1);
+        Image out;
+        try {
+            out = morph::inbetween(f0, f1, b->at, o, &note);
+        } catch (const Error& e) {
+            throw Error(str(b->f0, " + ", b->f1, ": ", e.what()));
+        }
         if (!note.empty()) warn(str("note: ", b->f0, " + ", b->f1, ": ", note));
         write_image(out, b->output);
         const double seconds = seconds_since(start);
