@@ -392,6 +392,45 @@ TEST(TwvRobustness, TheEncoderPadsAFileTooSmallForItsDecodingWork) {
     fs::remove(path);
 }
 
+// Padding chunks make up exactly the bytes asked for (from a chunk's least size, 6, on), with
+// payloads of at most `most`; a decoder skips them, between the last frame and the index, with
+// the index or scanning without it, and decodes the same frames.
+TEST(TwvRobustness, PaddingChunksAreSkipped) {
+    for (int64_t bytes : {1, 5, 6, 7, 70, 300}) {
+        int64_t total = 0;
+        for (const Bytes& chunk : twv_padding(bytes, 64)) {
+            ASSERT_GE(chunk.size(), 6u);
+            EXPECT_EQ(chunk[0], 'P');
+            EXPECT_LE(chunk.size(), 64u + 6u);
+            total += static_cast<int64_t>(chunk.size());
+        }
+        EXPECT_EQ(total, std::max<int64_t>(bytes, 6)) << bytes;
+    }
+    const std::string path = temp_path("padded.twv");
+    const Bytes file = small_file(path, false);
+    const Decoded plain = decode(path);
+    ASSERT_EQ(plain.frames.size(), 5u) << plain.damage;
+    uint64_t index_offset = 0;
+    for (int i = 7; i >= 0; --i) index_offset = (index_offset << 8) | file[file.size() - 12 + i];
+    Bytes padded(file.begin(), file.begin() + static_cast<std::ptrdiff_t>(index_offset));
+    for (const Bytes& chunk : twv_padding(300, 64))
+        padded.insert(padded.end(), chunk.begin(), chunk.end());
+    const uint64_t moved = padded.size();
+    padded.insert(padded.end(), file.begin() + static_cast<std::ptrdiff_t>(index_offset),
+                  file.end() - kTwvTrailerBytes);
+    const Bytes trailer = twv_trailer(moved);
+    padded.insert(padded.end(), trailer.begin(), trailer.end());
+    const Bytes scanned(padded.begin(), padded.end() - kTwvTrailerBytes);  // no trailer: a scan
+    for (const Bytes* bytes : std::initializer_list<const Bytes*>{&padded, &scanned}) {
+        const Decoded d = decode(path, bytes);
+        ASSERT_EQ(d.frames.size(), plain.frames.size()) << d.damage;
+        EXPECT_EQ(d.damage, plain.damage);
+        for (size_t t = 0; t < d.frames.size(); ++t)
+            EXPECT_EQ(d.frames[t].planes, plain.frames[t].planes);
+    }
+    fs::remove(path);
+}
+
 // A short clip at a low rate is not refused for its group's memory: 24 textured 640x480 frames
 // in one lifted group (88 MB of coefficients) at 8 kbit/s (about 1 KB) are written and decode.
 TEST(TwvRobustness, AShortClipAtALowRateIsWrittenAndDecodes) {

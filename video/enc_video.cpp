@@ -407,17 +407,10 @@ int64_t VideoEncoder::finish() {
     }
     const int64_t short_by =
         needed - static_cast<int64_t>(written_ + index.size()) - kTwvTrailerBytes;
+    const uint64_t index_start = written_;
     if (short_by > 0) {
-        // The chunk's tag, size and CRC count too: the smallest payload that makes up short_by
-        // (a chunk is at least 6 bytes).
-        size_t payload = static_cast<size_t>(short_by);
-        while (payload > 0 && twv_chunk('P', std::vector<uint8_t>(payload - 1)).size() >=
-                                  static_cast<size_t>(short_by)) {
-            --payload;
-        }
-        const std::vector<uint8_t> padding = twv_chunk('P', std::vector<uint8_t>(payload));
-        write(padding);
-        padding_ = static_cast<int64_t>(padding.size());
+        for (const std::vector<uint8_t>& chunk : twv_padding(short_by)) write(chunk);
+        padding_ = static_cast<int64_t>(written_) - static_cast<int64_t>(index_start);
     }
     const uint64_t index_offset = written_;
     write(index);

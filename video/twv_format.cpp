@@ -127,6 +127,23 @@ int twv_band_count(const TwvGroup& g, const TwvHeader& h) {
     return static_cast<int>(grid_bands(h.width, h.height, g.levels).size());
 }
 
+std::vector<std::vector<uint8_t>> twv_padding(int64_t bytes, int64_t most) {
+    std::vector<std::vector<uint8_t>> chunks;
+    for (int64_t rest = bytes; rest > 0;) {
+        // The chunk's tag, size and CRC count too: the last chunk takes the smallest payload
+        // that makes up the rest.
+        auto payload =
+            static_cast<size_t>(std::clamp<int64_t>(rest, 0, std::max<int64_t>(most, 0)));
+        while (payload > 0 && twv_chunk('P', std::vector<uint8_t>(payload - 1)).size() >=
+                                  static_cast<size_t>(rest)) {
+            --payload;
+        }
+        chunks.push_back(twv_chunk('P', std::vector<uint8_t>(payload)));
+        rest -= static_cast<int64_t>(chunks.back().size());
+    }
+    return chunks;
+}
+
 std::vector<uint8_t> write_twv_group(const TwvGroup& g) {
     ByteWriter w;
     w.varint(g.first_frame);

@@ -146,6 +146,11 @@ TwvHeader read_twv_header(std::span<const uint8_t> file, const std::string& name
 // the work its size may claim).
 std::vector<uint8_t> twv_chunk(uint8_t tag, std::span<const uint8_t> payload);
 
+// Padding chunks ('P') of at least `bytes` bytes in all, exactly `bytes` when that is 6 or more
+// (a chunk's least size), each with a payload of at most `most` zeros (a decoder reads a chunk
+// whole).
+std::vector<std::vector<uint8_t>> twv_padding(int64_t bytes, int64_t most = int64_t{1} << 20);
+
 std::vector<uint8_t> write_twv_group(const TwvGroup& group);
 // Checks the group against the clip (sizes, band counts, the limits); `what` prefixes messages.
 TwvGroup read_twv_group(std::span<const uint8_t> payload, const TwvHeader& header,
