@@ -125,8 +125,9 @@ Image with_flow_fallback(const Image& f0, const Image& f1, double t, const Flows
 // edges. Searching only where the flow failed, and keeping only what both directions confirm,
 // avoids both.)
 struct FastMotion {
-    cv::Mat d;      // CV_32FC2: a pixel's displacement a -> b, where `moved`
-    cv::Mat moved;  // CV_8U: 255 where block matching beat the flow
+    cv::Mat d;       // CV_32FC2: a pixel's displacement a -> b, where `moved`
+    cv::Mat moved;   // CV_8U: 255 where block matching beat the flow
+    cv::Mat failed;  // CV_8U: 255 where the flow's local error is over kMinError
 };
 
 FastMotion fast_motion(const cv::Mat& a8, const cv::Mat& b8, const cv::Mat& flow, int radius) {
@@ -139,7 +140,8 @@ FastMotion fast_motion(const cv::Mat& a8, const cv::Mat& b8, const cv::Mat& flow
     cv::remap(b, fetched, positions(flow), cv::noArray(), cv::INTER_LINEAR, cv::BORDER_REPLICATE);
     err = cv::abs(a - fetched);
     cv::blur(err, err_local, {3, 3});
-    FastMotion out{cv::Mat::zeros(a.size(), CV_32FC2), cv::Mat::zeros(a.size(), CV_8U)};
+    FastMotion out{cv::Mat::zeros(a.size(), CV_32FC2), cv::Mat::zeros(a.size(), CV_8U), {}};
+    out.failed = err_local >= kMinError;
     const cv::Rect frame(0, 0, b.cols, b.rows);
     // The blocks the flow failed on, worst first. More than a quarter of them is no small
     // object (a cut, a change of view): nothing is searched. At most one block in 16 is.
@@ -191,7 +193,7 @@ FastMotion fast_motion(const cv::Mat& a8, const cv::Mat& b8, const cv::Mat& flow
 // Keeps the moved pixels of `m` whose displacement the other direction confirms: the pixel it
 // lands on in the other frame moved too, back to within 2.5 px of where it came from.
 FastMotion confirmed(const FastMotion& m, const FastMotion& back) {
-    FastMotion out{m.d.clone(), cv::Mat::zeros(m.moved.size(), CV_8U)};
+    FastMotion out{m.d.clone(), cv::Mat::zeros(m.moved.size(), CV_8U), m.failed};
     for (int y = 0; y < m.moved.rows; ++y) {
         for (int x = 0; x < m.moved.cols; ++x) {
             if (!m.moved.at<uint8_t>(y, x)) continue;
@@ -208,12 +210,68 @@ FastMotion confirmed(const FastMotion& m, const FastMotion& back) {
     return out;
 }
 
+// One displacement for each connected group of moved pixels, the median of its pixels' (an
+// object moves as a whole; a spinning one matches block by block with scattered displacements).
+FastMotion unified(FastMotion m) {
+    cv::Mat labels;
+    const int count = cv::connectedComponents(m.moved, labels, 8, CV_32S);
+    std::vector<std::vector<float>> xs(count), ys(count);
+    for (int y = 0; y < labels.rows; ++y) {
+        for (int x = 0; x < labels.cols; ++x) {
+            const int l = labels.at<int32_t>(y, x);
+            if (l == 0) continue;
+            xs[l].push_back(m.d.at<cv::Vec2f>(y, x)[0]);
+            ys[l].push_back(m.d.at<cv::Vec2f>(y, x)[1]);
+        }
+    }
+    std::vector<cv::Vec2f> median(count);
+    for (int l = 1; l < count; ++l) {
+        auto mid = [](std::vector<float>& v) {
+            std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+            return v[v.size() / 2];
+        };
+        median[l] = {mid(xs[l]), mid(ys[l])};
+    }
+    for (int y = 0; y < labels.rows; ++y) {
+        for (int x = 0; x < labels.cols; ++x) {
+            const int l = labels.at<int32_t>(y, x);
+            if (l != 0) m.d.at<cv::Vec2f>(y, x) = median[l];
+        }
+    }
+    return m;
+}
+
+// Grows each object into the pixels around it where the flow failed too (parts whose look
+// changed, a spinning ball's far side), `steps` pixels at most, with its displacement.
+FastMotion grown(FastMotion m, int steps) {
+    for (int step = 0; step < steps; ++step) {
+        FastMotion out{m.d.clone(), m.moved.clone(), m.failed};
+        for (int y = 0; y < m.moved.rows; ++y) {
+            for (int x = 0; x < m.moved.cols; ++x) {
+                if (m.moved.at<uint8_t>(y, x) || !m.failed.at<uint8_t>(y, x)) continue;
+                for (int k = 0; k < 9; ++k) {
+                    const int yy = y + k / 3 - 1, xx = x + k % 3 - 1;
+                    if (yy < 0 || xx < 0 || yy >= m.moved.rows || xx >= m.moved.cols ||
+                        !m.moved.at<uint8_t>(yy, xx)) {
+                        continue;
+                    }
+                    out.d.at<cv::Vec2f>(y, x) = m.d.at<cv::Vec2f>(yy, xx);
+                    out.moved.at<uint8_t>(y, x) = 255;
+                    break;
+                }
+            }
+        }
+        m = std::move(out);
+    }
+    return m;
+}
+
 // Fills the gaps of the moved pixels (soft edges, flat insides that matched no better than the
 // flow): a pixel with at least 10 moved pixels among its 5x5 neighbours takes their mean
 // displacement. Twice.
 FastMotion filled(FastMotion m) {
     for (int pass = 0; pass < 2; ++pass) {
-        FastMotion out{m.d.clone(), m.moved.clone()};
+        FastMotion out{m.d.clone(), m.moved.clone(), m.failed};
         for (int y = 0; y < m.moved.rows; ++y) {
             for (int x = 0; x < m.moved.cols; ++x) {
                 if (m.moved.at<uint8_t>(y, x)) continue;
@@ -348,8 +406,12 @@ Image inbetween(const Image& f0, const Image& f1, double t, const InbetweenOptio
         const int radius = std::clamp(std::max(f0.width, f0.height) / 5, 16, 64);
         const FastMotion m01 = fast_motion(flows.a, flows.b, flows.f01, radius);
         const FastMotion m10 = fast_motion(flows.b, flows.a, flows.f10, radius);
-        return with_fast_objects(f0, f1, t, std::move(out), filled(confirmed(m01, m10)),
-                                 filled(confirmed(m10, m01)), to0, to1);
+        // Objects grow by at most a block into their unmatched parts.
+        auto objects = [](const FastMotion& m, const FastMotion& back) {
+            return grown(unified(filled(confirmed(m, back))), 8);
+        };
+        return with_fast_objects(f0, f1, t, std::move(out), objects(m01, m10), objects(m10, m01),
+                                 to0, to1);
     });
 }
 
