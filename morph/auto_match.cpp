@@ -256,7 +256,7 @@ Field dense_field(const cv::Mat& a8, const cv::Mat& b8, const cv::Matx23d& prior
     // and MEDIUM refined one pyramid level further halves its error on the tests. The backward
     // flow only checks it, and stops a level short at a third of the cost.
     auto dis = cv::DISOpticalFlow::create(cv::DISOpticalFlow::PRESET_MEDIUM);
-    dis->setFinestScale(0);
+    dis->setFinestScale(options.full_resolution ? 0 : 1);
     dis->calc(a8, field.warped, field.forward);
     dis->setFinestScale(1);
     dis->calc(field.warped, a8, field.backward);

@@ -30,8 +30,9 @@ struct InbetweenOptions {
     bool fast_objects = true;
 };
 
-// The meshes of the pair: a cell-sized grid on f0 fitted to automatic correspondences on f1.
-// `flow` (optional) receives auto_match's dense flows (see AutoMatchOptions::flow).
+// The meshes of the pair: a cell-sized grid on f0 fitted to automatic correspondences on f1
+// (auto_match with flows that stop a pyramid level short of full resolution: frames of one scene
+// need no finer ones). `flow` (optional) receives those flows (see AutoMatchOptions::flow).
 PairMeshes automatic_pair(const Image& f0, const Image& f1, double cell, DenseFlow* flow = nullptr);
 
 // The same, except that for frames of one size where no mesh fits the correspondences (too few
