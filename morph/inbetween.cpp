@@ -390,8 +390,9 @@ PairMeshes automatic_pair_or_rest(const Image& f0, const Image& f1, double cell,
 
 Image inbetween(const Image& f0, const Image& f1, double t, const InbetweenOptions& options,
                 std::string* note) {
+    // Frames under 16 pixels a side are auto_match's to refuse (DIS needs 12).
     const bool flow = options.flow_fallback && f0.width == f1.width && f0.height == f1.height &&
-                      f0.channels() == f1.channels();
+                      f0.channels() == f1.channels() && std::min(f0.width, f0.height) >= 16;
     // At rest, the flow and the fast objects can still make the frame.
     DenseFlow kept;
     const PairMeshes pair = flow ? automatic_pair_or_rest(f0, f1, options.cell, note, &kept)

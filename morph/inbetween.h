@@ -42,8 +42,9 @@ PairMeshes automatic_pair_or_rest(const Image& f0, const Image& f1, double cell,
                                   std::string* note = nullptr, DenseFlow* flow = nullptr);
 
 // The frame at t: the morph of the automatic pair, then the flow fallback and the fast objects
-// of InbetweenOptions. With the flow fallback (frames of one size and channel count), the pair is
-// automatic_pair_or_rest's: at rest, the flow and the fast objects make the frame.
+// of InbetweenOptions. With the flow fallback (frames of one size and channel count, at least 16
+// pixels a side), the pair is automatic_pair_or_rest's: at rest, the flow and the fast objects
+// make the frame.
 Image inbetween(const Image& f0, const Image& f1, double t, const InbetweenOptions& options = {},
                 std::string* note = nullptr);
 
