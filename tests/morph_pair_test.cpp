@@ -225,6 +225,11 @@ Image window(const Image& im, int x0, int y0, int w, int h) {
     return out;
 }
 
+// PSNR of the w x h windows at (x0, y0) of two RGB images.
+double window_psnr(const Image& a, const Image& b, int x0, int y0, int w, int h) {
+    return psnr(window(a, x0, y0, w, h), window(b, x0, y0, w, h)).all;
+}
+
 // A small disk moving fast over a still scene. The fitted grid follows the disk but drags the
 // still ground around it (the sun doubles, the hill smears): the mesh's two warps disagree there,
 // and the flow fallback mends it: the whole frame gains at least 5 dB against the truth (measured
@@ -239,13 +244,11 @@ TEST(Inbetween, flow_fallback_mends_the_mesh_where_its_warps_disagree) {
     plain.flow_fallback = false;
     const Image without = inbetween(f0, f1, 0.5, plain), with = inbetween(f0, f1, 0.5);
     EXPECT_GT(psnr(truth, with).all, psnr(truth, without).all + 5.0);
-    const double near_without =
-        psnr(window(truth, 48, 38, 40, 32), window(without, 48, 38, 40, 32)).all;
-    const double near_with = psnr(window(truth, 48, 38, 40, 32), window(with, 48, 38, 40, 32)).all;
+    const double near_without = window_psnr(truth, without, 48, 38, 40, 32);
+    const double near_with = window_psnr(truth, with, 48, 38, 40, 32);
     EXPECT_GT(near_with, near_without - 1.0) << near_with << " vs " << near_without;
-    const double far_without =
-        psnr(window(truth, 100, 70, 56, 46), window(without, 100, 70, 56, 46)).all;
-    const double far_with = psnr(window(truth, 100, 70, 56, 46), window(with, 100, 70, 56, 46)).all;
+    const double far_without = window_psnr(truth, without, 100, 70, 56, 46);
+    const double far_with = window_psnr(truth, with, 100, 70, 56, 46);
     EXPECT_GT(far_with, far_without - 0.5) << far_with << " vs " << far_without;
 }
 
@@ -262,10 +265,8 @@ TEST(Inbetween, a_small_fast_object_is_carried_to_the_middle) {
     InbetweenOptions plain;
     plain.fast_objects = false;
     const Image without = inbetween(f0, f1, 0.5, plain), with = inbetween(f0, f1, 0.5);
-    const double middle_without =
-        psnr(window(truth, 153, 104, 24, 24), window(without, 153, 104, 24, 24)).all;
-    const double middle_with =
-        psnr(window(truth, 153, 104, 24, 24), window(with, 153, 104, 24, 24)).all;
+    const double middle_without = window_psnr(truth, without, 153, 104, 24, 24);
+    const double middle_with = window_psnr(truth, with, 153, 104, 24, 24);
     const double all_without = psnr(truth, without).all, all_with = psnr(truth, with).all;
     EXPECT_GT(middle_with, middle_without + 10.0);
     EXPECT_GT(all_with, all_without + 6.0);
@@ -282,7 +283,7 @@ TEST(Inbetween, when_no_mesh_fits_the_flow_and_fast_objects_make_the_frame) {
     std::string note;
     const Image frame = inbetween(f0, f1, 0.5, {}, &note);
     EXPECT_NE(note.find("; the mesh stays at rest"), std::string::npos) << note;
-    EXPECT_GT(psnr(window(truth, 63, 43, 24, 24), window(frame, 63, 43, 24, 24)).all, 30.0);
+    EXPECT_GT(window_psnr(truth, frame, 63, 43, 24, 24), 30.0);
 }
 
 // Face landmarks: a procedural picture holds no face (nothing, not an error); a build without

@@ -128,17 +128,18 @@ int twv_band_count(const TwvGroup& g, const TwvHeader& h) {
 }
 
 std::vector<std::vector<uint8_t>> twv_padding(int64_t bytes, int64_t most) {
+    // A chunk of n payload bytes takes the tag, n's varint, n and the CRC.
+    auto chunk_bytes = [](int64_t n) {
+        int64_t varint = 1;
+        for (int64_t v = n; v >= 128; v >>= 7) ++varint;
+        return 1 + varint + n + 4;
+    };
     std::vector<std::vector<uint8_t>> chunks;
     for (int64_t rest = bytes; rest > 0;) {
-        // The chunk's tag, size and CRC count too: the last chunk takes the smallest payload
-        // that makes up the rest.
-        auto payload =
-            static_cast<size_t>(std::clamp<int64_t>(rest, 0, std::max<int64_t>(most, 0)));
-        while (payload > 0 && twv_chunk('P', std::vector<uint8_t>(payload - 1)).size() >=
-                                  static_cast<size_t>(rest)) {
-            --payload;
-        }
-        chunks.push_back(twv_chunk('P', std::vector<uint8_t>(payload)));
+        // The last chunk takes the smallest payload that makes up the rest.
+        int64_t payload = std::clamp<int64_t>(rest, 0, std::max<int64_t>(most, 0));
+        while (payload > 0 && chunk_bytes(payload - 1) >= rest) --payload;
+        chunks.push_back(twv_chunk('P', std::vector<uint8_t>(static_cast<size_t>(payload))));
         rest -= static_cast<int64_t>(chunks.back().size());
     }
     return chunks;
