@@ -62,6 +62,9 @@ nlohmann::json twv_info(const std::string& path, int64_t max_pixels) {
         if (g.transform == TwiTransform::mesh) {
             d += str(", grid ", g.grid_cols, "x", g.grid_rows, ", ",
                      g.motion == video::TwvMotion::tracked ? "tracked" : "static");
+            if (g.has_canvas()) {
+                d += str(", canvas ", h.width + g.extend_x, "x", h.height + g.extend_y);
+            }
         }
         d += g.lifted > 0 ? ", lifted" : ", low delay";
         ++domains[d];

@@ -2,6 +2,7 @@
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
+#include <map>
 #include <memory>
 #include <nlohmann/json.hpp>
 
@@ -45,20 +46,22 @@ const char* kind_name(video::TwvFrameKind kind) {
 }
 
 // The mesh over the frame, and each track as a dot with a line to where it came from.
-void write_debug_frame(const std::string& dir, int64_t number, const Image& frame,
-                       const video::VideoEncoder& encoder) {
+void write_debug_frame(const std::string& dir, const video::EncodedFrame& coded,
+                       const Image& frame) {
     char name[40];
-    std::snprintf(name, sizeof name, "frame_%05lld.png", static_cast<long long>(number));
+    std::snprintf(name, sizeof name, "frame_%05lld.png", static_cast<long long>(coded.number));
     const double scale = std::max(1.0, std::round(640.0 / std::max(frame.width, frame.height)));
     Image picture;
-    if (const Mesh* rest = encoder.mesh()) {
-        Mesh m = *rest;
-        m.vertices.assign(encoder.vertices().begin(), encoder.vertices().end());
+    if (coded.mesh) {
+        Mesh m = *coded.mesh;  // drawn over the frame (a canvas reaches past it)
+        m.vertices = coded.vertices;
+        m.width = frame.width;
+        m.height = frame.height;
         picture = draw_mesh(m, {.levels = 0, .scale = scale, .line_width = 1.0}, &frame);
     } else {
         picture = frame;
     }
-    if (const auto* tracks = encoder.tracks()) {
+    if (const auto* tracks = coded.live_tracks.empty() ? nullptr : &coded.live_tracks) {
         const double s = static_cast<double>(picture.width) / frame.width;
         auto dot = [&](Vec2 p, float r, float g, float b) {
             const int cx = static_cast<int>(p.x * s), cy = static_cast<int>(p.y * s);
@@ -140,8 +143,13 @@ void run_encode(const EncodeArgs& a) {
     double psnr_sum = 0;
     int64_t given = 0;
     given_count = &given;
+    std::map<int64_t, Image> drawn;  // --debug-dir: frames given and not yet coded
     // A coded frame: its line in --json, its PSNR, the warnings it brings.
     const auto take = [&](const video::EncodedFrame& f) {
+        if (const auto it = drawn.find(f.number); it != drawn.end()) {
+            write_debug_frame(a.debug_dir, f, it->second);
+            drawn.erase(it);
+        }
         psnr_sum += std::min(f.psnr, 100.0);  // identical frames count as 100 dB, as x264 does
         if (o.quality > 0 && f.first_in_group && f.quality_target < o.quality && !a.json) {
             char line[160];
@@ -162,6 +170,7 @@ void run_encode(const EncodeArgs& a) {
                           {"new_group", f.new_group},
                           {"group_domain", f.grid_group     ? "grid97"
                                            : f.static_group ? "static"
+                                           : f.canvas_group ? "canvas"
                                                             : "own"},
                           {"quality_target", f.quality_target}});
         ++n;
@@ -170,12 +179,12 @@ void run_encode(const EncodeArgs& a) {
         for (const video::EncodedFrame& f : done) take(f);
     };
     while ((a.max_frames <= 0 || given < a.max_frames) && source.read(frame)) {
+        if (!a.debug_dir.empty()) drawn.emplace(given, frame);
         try {
             coded(encoder->encode(frame));
         } catch (const Error& e) {
             throw Error(str(a.input, ": frame ", given, ": ", e.what()));
         }
-        if (!a.debug_dir.empty()) write_debug_frame(a.debug_dir, given, frame, *encoder);
         ++given;
     }
     coded(encoder->flush());
@@ -204,6 +213,7 @@ void run_encode(const EncodeArgs& a) {
                         {"groups", groups.groups},
                         {"static_groups", groups.static_groups},
                         {"grid_groups", groups.grid_groups},
+                        {"canvas_groups", groups.canvas_groups},
                         {"bytes", bytes},
                         {"padding_bytes", encoder->padding()},
                         {"kbps", kbps},
@@ -219,6 +229,7 @@ void run_encode(const EncodeArgs& a) {
     std::string kept;  // which groups left the clip's own domain
     if (groups.static_groups > 0) kept += str(", ", groups.static_groups, " on the static mesh");
     if (groups.grid_groups > 0) kept += str(", ", groups.grid_groups, " on the fixed grid");
+    if (groups.canvas_groups > 0) kept += str(", ", groups.canvas_groups, " on a canvas");
     std::printf(
         "%s: %lld frames %dx%d in %lld groups%s, %lld bytes, %.1f kbit/s at %.3g fps "
         "(%.4f bpp), mean PSNR %.2f dB; %.1f frames/s\n",
@@ -337,18 +348,21 @@ std::vector<std::string> video_demo(const std::string& clip, const std::string& 
         Image frame;
         int64_t n = 0, groups = 0;
         const auto start = std::chrono::steady_clock::now();
+        std::map<int64_t, Image> drawn;  // frames to draw the mesh over, until they are coded
         const auto take = [&](const std::vector<video::EncodedFrame>& done) {
             for (const video::EncodedFrame& f : done) {
                 psnr[k] += std::min(f.psnr, 100.0);
                 groups += f.first_in_group;
                 ++n;
+                if (const auto it = drawn.find(f.number); it != drawn.end()) {
+                    write_debug_frame(mesh_dir, f, it->second);
+                    drawn.erase(it);
+                }
             }
         };
         for (int64_t given = 0; source.read(frame); ++given) {
+            if (k == 0 && given % 10 == 0 && given <= 20) drawn.emplace(given, frame);
             take(encoder.encode(frame));
-            if (k == 0 && given % 10 == 0 && given <= 20) {
-                write_debug_frame(mesh_dir, given, frame, encoder);
-            }
         }
         take(encoder.flush());
         const int64_t bytes = encoder.finish();

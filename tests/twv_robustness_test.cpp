@@ -278,6 +278,60 @@ TEST(TwvRobustness, CraftedChunksWithValidCrcsAreRefused) {
     fs::remove(temp_path("crafted.twv"));
 }
 
+// A canvas (a panning group's T0 beyond the frame) is at most twice the frame a side, only in
+// lifted groups, its grid no finer than a pixel, and each frame's window lies on it.
+TEST(TwvRobustness, CanvasesAndWindowsOutsideTheirLimitsAreRefused) {
+    const TwvHeader header{.width = 32, .height = 24, .version = 3};
+    TwvGroup g{.transform = TwiTransform::mesh,
+               .levels = 2,
+               .motion = TwvMotion::tracked,
+               .grid_cols = 5,
+               .grid_rows = 3,
+               .channel_factors = {1, 1, 1},
+               .lifted = 4,
+               .extend_x = 8};
+    g.band_norms.assign(twv_band_count(g, header), 1.0f);
+    const auto read_group = [&](const TwvGroup& group) {
+        return read_twv_group(write_twv_group(group), header, "g");
+    };
+    const TwvGroup back = read_group(g);
+    EXPECT_EQ(back.extend_x, 8);
+    EXPECT_EQ(back.extend_y, 0);
+    EXPECT_EQ(back.grid_cols, 5);
+    TwvFrame f{.number = 0, .kind = TwvFrameKind::band, .window_x = 32, .window_y = 0};
+    f.planes.assign(3, std::vector<uint8_t>(g.band_norms.size(), 0));
+    const TwvFrame frame_back = read_twv_frame(write_twv_frame(f, g), g, header, "f");
+    EXPECT_EQ(frame_back.window_x, 32);
+
+    const auto refused = [&](const TwvGroup& group, const char* why) {
+        try {
+            read_group(group);
+            ADD_FAILURE() << "accepted " << why;
+        } catch (const Error& e) {
+            EXPECT_NE(std::string(e.what()).find(why), std::string::npos) << e.what();
+        }
+    };
+    TwvGroup wide = g;
+    wide.extend_x = 33;
+    refused(wide, "canvas extension x");
+    TwvGroup low_delay = g;
+    low_delay.lifted = 0;
+    refused(low_delay, "a canvas in a low-delay group");
+    TwvGroup fine = g;
+    fine.grid_cols = 41;
+    refused(fine, "a grid of 41x3 cells on 40x24 pixels");
+    // A version 2 file has no canvas fields: the group's extra bytes are refused.
+    EXPECT_THROW(read_twv_group(write_twv_group(g), {.width = 32, .height = 24, .version = 2}, "g"),
+                 Error);
+
+    TwvFrame outside = f;
+    outside.window_x = 33;  // the canvas is 8 pixels wider: windows up to 32 quarter pixels
+    EXPECT_THROW(read_twv_frame(write_twv_frame(outside, g), g, header, "f"), Error);
+    outside = f;
+    outside.window_y = 1;  // no room down
+    EXPECT_THROW(read_twv_frame(write_twv_frame(outside, g), g, header, "f"), Error);
+}
+
 // The reliability issue's .twv probes: a 123-byte file of 8192x8192 frames made `info` use
 // 12 GiB (it decoded every frame) and `decode` run for minutes. The header's frame size is now
 // weighed against the file's bytes (trusting limits let it through), and describing a file reads

@@ -232,8 +232,9 @@ void VideoDecoder::load_lifted_group() {
             TwvFrame f = frame_of(*chunk, what);
             std::vector<Vec2> vertices = frame_vertices(f, what);
             previous_ = std::move(vertices_);
-            vertices_ = vertices;
-            g.vertices.push_back(std::move(vertices));
+            vertices_ = vertices;  // on the canvas: what the next frame's motion starts from
+            g.vertices.push_back(group_.has_canvas() ? window_vertices(vertices, f)
+                                                     : std::move(vertices));
             g.info.push_back({.number = f.number,
                               .kind = f.kind,
                               .bytes = static_cast<int64_t>(chunk->end - chunk->offset),

@@ -58,7 +58,8 @@ class VideoDecoder {
     bool skim();
     const std::string& damage() const { return damage_; }
 
-    // Of the frame read last.
+    // Of the frame read last; its mesh's vertices in the frame's pixels (on a canvas, they reach
+    // past the frame).
     const TwvFrameInfo& info() const { return info_; }
     const TwvGroup& group() const { return group_; }
     std::span<const Vec2> vertices() const { return vertices_; }

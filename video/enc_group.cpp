@@ -41,7 +41,8 @@ VideoEncoder::GroupCoding VideoEncoder::code_group(const CodingDomain& domain, c
                                                    std::vector<Planes> x,
                                                    const std::vector<std::vector<Vec2>>& vertices,
                                                    const std::vector<std::vector<uint8_t>>& motion,
-                                                   TwvMotion kind, float fine_step) const {
+                                                   TwvMotion kind, float fine_step,
+                                                   std::span<const Window> windows) const {
     const int n = static_cast<int>(x.size());
     const int64_t first = pending_.front().info.number;
     const int levels = temporal_levels(n);
@@ -84,6 +85,10 @@ VideoEncoder::GroupCoding VideoEncoder::code_group(const CodingDomain& domain, c
             f.kind = TwvFrameKind::band;
             f.base_step = static_cast<float>(base_step / norms[static_cast<size_t>(t)]);
             f.motion = motion[static_cast<size_t>(t)];
+            if (!windows.empty()) {
+                f.window_x = windows[static_cast<size_t>(t)][0];
+                f.window_y = windows[static_cast<size_t>(t)][1];
+            }
             const IntPlanes q = quantize_planes(domain, x[static_cast<size_t>(t)], f.base_step);
             f.planes = count_planes(domain.layout(), const_spans(q));
             EmbeddedStream& s = streams[static_cast<size_t>(t)];
@@ -180,18 +185,13 @@ VideoEncoder::GroupCoding VideoEncoder::code_group(const CodingDomain& domain, c
     return g;
 }
 
-std::vector<EncodedFrame> VideoEncoder::code_lifted_group() {
+std::vector<EncodedFrame> VideoEncoder::code_lifted_group(std::vector<GroupFrames> meshes) {
     const size_t n = pending_.size();
     report(options_.progress, 0.6, "coding the group");
-    std::vector<Planes> x;
-    std::vector<std::vector<Vec2>> vertices;
-    std::vector<std::vector<uint8_t>> motion;
     bool moved = false;
-    for (Pending& p : pending_) {
-        x.push_back(std::move(p.coefficients));
-        vertices.push_back(p.vertices);
-        motion.push_back(p.motion);
-        moved = moved || !p.motion.empty();
+    for (const GroupFrames& m : meshes) {
+        moved = moved || m.canvas.group.has_canvas();
+        for (const auto& bytes : m.motion) moved = moved || !bytes.empty();
     }
     // Which of two codings of the group to keep: the lower error at the rate (with --psnr: the
     // smaller group at no lower quality).
@@ -199,15 +199,21 @@ std::vector<EncodedFrame> VideoEncoder::code_lifted_group() {
         return options_.kbps > 0 ? a.squared_error < b.squared_error
                                  : a.bytes < b.bytes && a.squared_error <= 1.02 * b.squared_error;
     };
-    // The codings: on the tracked mesh; on the static mesh, whose frames carry no motion (motion
-    // never hurts); on the fixed grid (nor does the mesh). They are independent, so each runs on
-    // a core of its own (its kernels serial there); the choice below is made in this order.
-    std::optional<GroupCoding> tracked, still, grid;
+    // The codings: on each of the meshes (tracked: on a canvas and on the frame); on the static
+    // mesh, whose frames carry no motion (motion never hurts); on the fixed grid (nor does the
+    // mesh). They are independent, so each runs on a core of its own (its kernels serial there);
+    // the choice below is made in this order.
+    std::vector<std::optional<GroupCoding>> on_mesh(meshes.size());
+    std::optional<GroupCoding> still, grid;
     std::vector<std::function<void()>> codings;
-    codings.push_back([&] {
-        tracked = code_group(*domain_, group_, std::move(x), vertices, motion, group_.motion,
-                             fine_step_[0]);
-    });
+    for (size_t k = 0; k < meshes.size(); ++k) {
+        codings.push_back([&, k] {
+            GroupFrames& m = meshes[k];
+            on_mesh[k] =
+                code_group(*m.canvas.domain, m.canvas.group, std::move(m.coefficients), m.vertices,
+                           m.motion, group_.motion, fine_step_[0], m.canvas.windows);
+        });
+    }
     if (grid_domain_) {
         codings.push_back([&] {
             std::vector<Planes> pixels(n);
@@ -238,12 +244,29 @@ std::vector<EncodedFrame> VideoEncoder::code_lifted_group() {
             for (int64_t k = begin; k < end; ++k) codings[static_cast<size_t>(k)]();
         },
         1);
-    GroupCoding g = std::move(*tracked);
-    if (still && better(*still, g)) g = std::move(*still);
+    size_t chosen = 0;
+    for (size_t k = 1; k < meshes.size(); ++k) {
+        if (better(*on_mesh[k], *on_mesh[chosen])) chosen = k;
+    }
+    GroupCoding g = std::move(*on_mesh[chosen]);
+    std::shared_ptr<const CodingDomain> domain = meshes[chosen].canvas.domain;
+    std::vector<std::vector<Vec2>> vertices = std::move(meshes[chosen].vertices);
+    if (still && better(*still, g)) {
+        g = std::move(*still);
+        domain = domain_;
+        vertices.assign(n, domain_->shape().mesh.vertices);
+    }
     if (options_.kbps > 0) fine_step_[0] = g.next_fine_step;
     if (grid) {
         if (options_.kbps > 0) fine_step_[1] = grid->next_fine_step;
-        if (better(*grid, g)) g = std::move(*grid);
+        if (better(*grid, g)) {
+            g = std::move(*grid);
+            domain.reset();
+        }
+    }
+    for (size_t t = 0; t < n && !meshes[chosen].tracks.empty(); ++t) {
+        pending_[t].info.tracks = meshes[chosen].tracks[t];
+        pending_[t].info.fit_rms = meshes[chosen].rms[t];
     }
 
     index_.group_offsets.push_back(written_);
@@ -261,6 +284,7 @@ std::vector<EncodedFrame> VideoEncoder::code_lifted_group() {
         e.kind = TwvFrameKind::band;
         e.first_in_group = t == 0;
         e.grid_group = g.group.transform != group_.transform;
+        e.canvas_group = g.group.has_canvas();
         e.static_group = !e.grid_group && g.group.motion == TwvMotion::none &&
                          group_.motion == TwvMotion::tracked;
         e.bytes = static_cast<int64_t>(written_ - start);
@@ -268,6 +292,11 @@ std::vector<EncodedFrame> VideoEncoder::code_lifted_group() {
         e.psnr = psnr(p.frame, g.images[t]).all;
         e.quality_target = g.quality_target;
         e.reconstruction = std::move(g.images[t]);
+        if (domain && domain->is_mesh()) {
+            e.mesh = std::shared_ptr<const Mesh>(domain, &domain->shape().mesh);
+            e.vertices = vertices[t];
+        }
+        e.live_tracks = std::move(p.tracks);
         done.push_back(std::move(e));
         start = written_;
     }

@@ -17,23 +17,54 @@ void MeshMotion::track(const Image& frame) {
         std::count_if(tracks_->begin(), tracks_->end(), [](const Track& t) { return !t.born; }));
 }
 
+Vec2 median_step(std::span<const Track> tracks) {
+    std::vector<double> x, y;
+    for (const Track& t : tracks) {
+        if (t.born) continue;
+        x.push_back(t.position.x - t.previous.x);
+        y.push_back(t.position.y - t.previous.y);
+    }
+    if (x.size() < 3) return {};
+    const auto median = [](std::vector<double>& v) {
+        const auto middle = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
+        std::nth_element(v.begin(), middle, v.end());
+        return *middle;
+    };
+    return {median(x), median(y)};
+}
+
+void MeshMotion::set_rest(const Mesh& rest) {
+    rest_ = rest;
+    rest_point_.clear();
+}
+
+std::string MeshMotion::cut() const {
+    const double threshold = options_.min_carried * static_cast<double>(last_live_);
+    if (last_live_ >= 8 &&  // a handful, so that a few lost tracks on flat content are no cut
+        static_cast<double>(carried_) < threshold) {
+        return str("a cut: ", carried_, " of ", last_live_, " tracks carried over");
+    }
+    return {};
+}
+
 MotionStep MeshMotion::fit(std::span<const Vec2> previous) const {
     MotionStep step;
+    step.failure = cut();
+    return step.failure.empty() ? fit(*tracks_, previous, {}) : step;
+}
+
+MotionStep MeshMotion::fit(std::span<const Track> tracks, std::span<const Vec2> previous,
+                           Vec2 offset) const {
+    MotionStep step;
     std::vector<Vec2> a, b;
-    for (const Track& t : *tracks_) {
+    for (const Track& t : tracks) {
         if (t.born) continue;
         const auto it = rest_point_.find(t.id);
         if (it == rest_point_.end()) continue;
         a.push_back(it->second);
-        b.push_back(t.position);
+        b.push_back(t.position + offset);
     }
     step.tracks = static_cast<int>(a.size());
-    const double threshold = options_.min_carried * static_cast<double>(last_live_);
-    if (last_live_ >= 8 &&  // a handful, so that a few lost tracks on flat content are no cut
-        static_cast<double>(carried_) < threshold) {
-        step.failure = str("a cut: ", carried_, " of ", last_live_, " tracks carried over");
-        return step;
-    }
     if (step.tracks < options_.min_tracks) {
         step.hold = true;
         return step;
@@ -71,17 +102,22 @@ MotionStep MeshMotion::fit(std::span<const Vec2> previous) const {
 }
 
 void MeshMotion::pin(std::span<const Vec2> vertices, bool restart) {
+    pin(*tracks_, vertices, restart, {});
+}
+
+void MeshMotion::pin(std::span<const Track> tracks, std::span<const Vec2> vertices, bool restart,
+                     Vec2 offset) {
     if (restart) rest_point_.clear();
     std::vector<int64_t> ids;
     std::vector<Vec2> points;
     std::unordered_map<int64_t, Vec2> kept;
-    for (const Track& t : *tracks_) {
+    for (const Track& t : tracks) {
         const auto it = rest_point_.find(t.id);
         if (it != rest_point_.end()) {
             kept.emplace(t.id, it->second);
         } else {
             ids.push_back(t.id);
-            points.push_back(t.position);
+            points.push_back(t.position + offset);
         }
     }
     const auto pins = pin_points(rest_, vertices, points);

@@ -37,6 +37,10 @@ struct MotionStep {
     double rms = 0;       // of the fit's inliers, px
 };
 
+// The median step of the tracks carried from the frame before (x and y apart): the camera's pan;
+// zero with fewer than 3.
+Vec2 median_step(std::span<const Track> tracks);
+
 class MeshMotion {
   public:
     // `rest`: the group's mesh at its rest positions (every group starts there).
@@ -44,11 +48,24 @@ class MeshMotion {
 
     // Tracks `frame` (every frame, intra or not).
     void track(const Image& frame);
-    // The current frame's vertices from the pinned tracks, starting from `previous`.
+    // Why the frame tracked last cannot continue the group (most tracks lost at once: a cut), or
+    // empty.
+    std::string cut() const;
+    // The current frame's vertices from the pinned tracks, starting from `previous`; a cut fails.
     MotionStep fit(std::span<const Vec2> previous) const;
     // Pins the tracks without a pin (born this frame, or every track when `restart`, at a group
     // start) on the mesh at `vertices`, and forgets the pins of lost tracks.
     void pin(std::span<const Vec2> vertices, bool restart);
+
+    // The same for a frame's `tracks` kept from its tracking, on a canvas where the frame's
+    // pixel p lies at p + `offset` (fitting a group after its frames are tracked). fit() checks
+    // no cut.
+    MotionStep fit(std::span<const Track> tracks, std::span<const Vec2> previous,
+                   Vec2 offset) const;
+    void pin(std::span<const Track> tracks, std::span<const Vec2> vertices, bool restart,
+             Vec2 offset);
+    // Another rest mesh (a group's canvas); forgets every pin.
+    void set_rest(const Mesh& rest);
 
     const std::vector<Track>& tracks() const { return *tracks_; }
 

@@ -125,14 +125,6 @@ VideoEncoder::~VideoEncoder() {
     }
 }
 
-const Mesh* VideoEncoder::mesh() const {
-    return domain_->is_mesh() ? &domain_->shape().mesh : nullptr;
-}
-
-const std::vector<Track>* VideoEncoder::tracks() const {
-    return motion_ ? &motion_->tracks() : nullptr;
-}
-
 void VideoEncoder::write(const std::vector<uint8_t>& bytes) {
     out_.write(reinterpret_cast<const char*>(bytes.data()),
                static_cast<std::streamsize>(bytes.size()));
@@ -268,8 +260,9 @@ std::vector<EncodedFrame> VideoEncoder::encode(const Image& frame) {
     if (motion_) {
         report(progress, 0.0, "tracking");
         motion_->track(frame);
+        if (!options_.low_delay) return encode_lifted_tracked(frame, std::move(info));
     }
-    const Mesh* rest = mesh();
+    const Mesh* rest = domain_->is_mesh() ? &domain_->shape().mesh : nullptr;
     bool intra = frames_ == 0 || in_group_ >= group_length_;
     std::vector<Vec2> v;
     if (!intra && motion_) {
@@ -302,7 +295,7 @@ std::vector<EncodedFrame> VideoEncoder::encode(const Image& frame) {
         intra = !info.new_group.empty();
     }
     std::vector<EncodedFrame> done;
-    if (intra && !pending_.empty()) done = code_lifted_group();
+    if (intra && !pending_.empty()) done = code_pending();
     // Groups start at the rest mesh.
     if (intra || (rest && !motion_)) {
         v = rest ? rest->vertices : std::vector<Vec2>{};
@@ -326,6 +319,11 @@ std::vector<EncodedFrame> VideoEncoder::encode(const Image& frame) {
         base_step_ = calibrate_step(frame);
     }
     info.quality_target = options_.quality > 0 ? quality_target_ : 0;
+    if (rest) {
+        info.mesh = std::shared_ptr<const Mesh>(domain_, rest);
+        info.vertices = vertices_;
+    }
+    if (motion_) info.live_tracks = motion_->tracks();
     if (options_.low_delay) {
         info.motion_bytes = static_cast<int64_t>(motion_bytes.size());
         if (intra) start_group(frames_);
@@ -348,8 +346,7 @@ std::vector<EncodedFrame> VideoEncoder::encode(const Image& frame) {
     in_group_ = intra ? 1 : in_group_ + 1;
     ++frames_;
     if (in_group_ >= group_length_) {
-        std::vector<EncodedFrame> group = code_lifted_group();
-        for (EncodedFrame& e : group) done.push_back(std::move(e));
+        for (EncodedFrame& e : code_pending()) done.push_back(std::move(e));
     }
     return done;
 }
@@ -387,7 +384,7 @@ EncodedFrame VideoEncoder::encode_low_delay(const Image& frame, EncodedFrame inf
 
 std::vector<EncodedFrame> VideoEncoder::flush() {
     if (finished_) throw Error("the encoder has finished");
-    return pending_.empty() ? std::vector<EncodedFrame>{} : code_lifted_group();
+    return code_pending();
 }
 
 int64_t VideoEncoder::finish() {

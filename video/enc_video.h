@@ -19,6 +19,7 @@
 // bit for bit.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <fstream>
 #include <functional>
@@ -70,6 +71,9 @@ struct VideoEncodeOptions {
     // when that gives the lower error at the rate (with a quality target: the smaller group).
     bool grid_groups = true;
     MeshMotionOptions mesh_motion = {};
+    // Tracked lifted groups whose camera pans are coded on a canvas (enc_canvas.cpp); false: on
+    // the frame, the mesh stretching where new content enters.
+    bool canvas = true;
     // How frames go on the mesh (project.h). The projection by default: with lifted groups it pays
     // at every rate (carphone, 96 frames, PSNR at 38 / 152 / 304 kbit/s: point 26.70 / 32.17 /
     // 33.87 dB, fit 26.93 / 33.04 / 35.34). With low-delay deltas it did not (30 frames at 150
@@ -100,6 +104,7 @@ struct EncodedFrame {
     bool first_in_group = false;
     bool static_group = false;  // a tracked clip's group coded better on the static mesh
     bool grid_group = false;    // a mesh clip's group coded better on the fixed grid
+    bool canvas_group = false;  // a tracked group coded on a canvas (its camera pans)
     int64_t bytes = 0;          // everything written for it (group chunk included)
     int64_t motion_bytes = 0;   // vertex motion
     double psnr = 0;            // of reconstruction() against the input
@@ -108,15 +113,21 @@ struct EncodedFrame {
     std::string new_group;      // why this frame starts a group early (empty: it does not)
     double quality_target = 0;  // --psnr: the group's target, lowered where it is out of reach
     Image reconstruction;       // the decoder's image of the frame
+    // The mesh the frame was coded on (none on the fixed grid): its topology, and its vertices in
+    // the frame's pixels (a canvas reaches past the frame); and its tracks (tracked mesh).
+    std::shared_ptr<const Mesh> mesh;
+    std::vector<Vec2> vertices;
+    std::vector<Track> live_tracks;
 };
 
 // The groups among coded frames, and those kept off the clip's own domain (a tracked clip's on
 // the static mesh, a mesh clip's on the fixed grid).
 struct GroupCount {
-    int64_t groups = 0, static_groups = 0, grid_groups = 0;
+    int64_t groups = 0, static_groups = 0, grid_groups = 0, canvas_groups = 0;
     void add(const EncodedFrame& f) {
         if (!f.first_in_group) return;
         ++groups;
+        canvas_groups += f.canvas_group;
         static_groups += f.static_group;
         grid_groups += f.grid_group;
     }
@@ -136,10 +147,6 @@ class VideoEncoder {
     std::vector<EncodedFrame> encode(const Image& frame);
     // Codes the frames still buffered and returns them (finish() does it too, and drops them).
     std::vector<EncodedFrame> flush();
-    // Of the frame given last (mesh path): the mesh and its vertex positions, and the tracks.
-    const Mesh* mesh() const;
-    std::span<const Vec2> vertices() const { return vertices_; }
-    const std::vector<Track>* tracks() const;
 
     // Writes the index and the trailer and renames the file into place. Returns its size.
     int64_t finish();
@@ -149,14 +156,42 @@ class VideoEncoder {
     const TwvGroup& group() const { return group_; }
 
   private:
-    // A frame of a lifted group, waiting for the group to be coded.
+    // A frame of a lifted group, waiting for the group to be coded. A tracked group's frames
+    // keep their tracks and the camera's offset since the group's first frame (the frame's pixel
+    // p lies at p + offset there), and are fitted and analysed when the group is complete.
     struct Pending {
         Image frame;
         Planes coefficients;
-        std::vector<Vec2> vertices;
+        std::vector<Vec2> vertices;  // in the frame's pixels
         std::vector<uint8_t> motion;
         EncodedFrame info;
+        std::vector<Track> tracks = {};
+        Vec2 offset = {};
     };
+    using Window = std::array<int32_t, 2>;  // a frame's place on a canvas, in 1/4 pixels
+    // A tracked lifted group's domain: on a canvas when its camera pans, with each frame's window.
+    struct Canvas {
+        TwvGroup group;
+        std::shared_ptr<const CodingDomain> domain;
+        std::vector<Window> windows = {};  // empty: all zero
+    };
+    // The pending frames on one domain: their positions (in the frames' pixels), motion and
+    // coefficients; for a tracked group, each fit's pinned tracks and residual, and why the group
+    // ends early (the fit of frame vertices.size() failed).
+    struct GroupFrames {
+        Canvas canvas;
+        std::vector<std::vector<Vec2>> vertices = {};
+        std::vector<std::vector<uint8_t>> motion = {};
+        std::vector<Planes> coefficients = {};
+        std::vector<int> tracks = {};
+        std::vector<double> rms = {};
+        std::string failure = {};
+    };
+    std::vector<EncodedFrame> encode_lifted_tracked(const Image& frame, EncodedFrame info);
+    Canvas place_canvas() const;
+    GroupFrames fit_group(Canvas canvas);
+    void analyze_group(GroupFrames& frames) const;
+    std::vector<EncodedFrame> code_pending();
     void start_group(int64_t number);
     EncodedFrame encode_low_delay(const Image& frame, EncodedFrame info, TwvFrame& f,
                                   uint64_t start);
@@ -174,8 +209,10 @@ class VideoEncoder {
     GroupCoding code_group(const CodingDomain& domain, const TwvGroup& base, std::vector<Planes> x,
                            const std::vector<std::vector<Vec2>>& vertices,
                            const std::vector<std::vector<uint8_t>>& motion, TwvMotion kind,
-                           float fine_step) const;
-    std::vector<EncodedFrame> code_lifted_group();
+                           float fine_step, std::span<const Window> windows = {}) const;
+    // Codes the pending group, on each of `meshes` (the tracked mesh on a canvas and on the
+    // frame, or the clip's one domain) and the alternatives, and writes the best coding.
+    std::vector<EncodedFrame> code_lifted_group(std::vector<GroupFrames> meshes);
     IntPlanes quantize_planes(const CodingDomain& domain, const Planes& r, float base_step) const;
     Planes requantized(const CodingDomain& domain, const Planes& x, float base_step) const;
     // The step for options_.quality, and the target used (lowered below a lower ceiling).

@@ -20,7 +20,8 @@ std::shared_ptr<const CodingDomain> group_domain(const TwvHeader& header, const 
     Mesh rest;
     if (group.transform == TwiTransform::mesh) {
         // Rest positions on the motion grid, so that a mesh that does not move codes no motion.
-        rest = grid_mesh(header.width, header.height, group.grid_cols, group.grid_rows);
+        rest = grid_mesh(header.width + group.extend_x, header.height + group.extend_y,
+                         group.grid_cols, group.grid_rows);
         rest.vertices = round_to_motion_unit(rest.vertices);
     }
     DomainShape shape{.transform = group.transform,
@@ -30,9 +31,17 @@ std::shared_ptr<const CodingDomain> group_domain(const TwvHeader& header, const 
                       .colour = header.channels == 3 ? TwiColour::ycbcr : TwiColour::none,
                       .levels = group.levels,
                       .mesh = std::move(rest),
-                      .channel_factors = group.channel_factors};
+                      .channel_factors = group.channel_factors,
+                      .canvas = group.has_canvas()};
     return shared_domain(shape, measure_norms ? 1 : 0,
                          measure_norms ? std::span<const float>() : group.band_norms);
+}
+
+std::vector<Vec2> window_vertices(std::span<const Vec2> canvas, const TwvFrame& frame) {
+    const Vec2 window{frame.window_x / kMotionUnit, frame.window_y / kMotionUnit};
+    std::vector<Vec2> out(canvas.begin(), canvas.end());
+    for (Vec2& p : out) p = p - window;
+    return out;
 }
 
 void add_decoded_residual(const CodingDomain& domain, const TwvFrame& frame, Planes& x,

@@ -1,7 +1,10 @@
 // The coding domain of a .twv group, shared by the encoder and the decoder: the core codec's
 // CodingDomain built from the group's topology (the grid mesh T0 at rest, rounded to the motion
 // grid, or the fixed grid on the pixel lattice); per frame it is used with that frame's vertex
-// positions. One topology, many position sets.
+// positions. One topology, many position sets. A group with a canvas (TwvGroup::extend_x/y) has
+// T0 on the canvas, and each frame's positions in that frame's pixels: on the canvas less the
+// frame's window (window_vertices).
+
 #pragma once
 
 #include <memory>
@@ -24,6 +27,9 @@ std::shared_ptr<const CodingDomain> group_domain(const TwvHeader& header, const 
 // frame's decoded coefficients, or zeros for an intra frame): the one step the encoder and the
 // decoder share, so that both hold the same coefficients to the bit.
 // `fast_start`: the coder's models learn fast while fresh (version 2 files; range_coder.h).
+// Canvas positions in the frame's pixels: less the frame's window (1/4-pixel units).
+std::vector<Vec2> window_vertices(std::span<const Vec2> canvas, const TwvFrame& frame);
+
 void add_decoded_residual(const CodingDomain& domain, const TwvFrame& frame, Planes& coefficients,
                           bool fast_start = true);
 

@@ -12,7 +12,7 @@
 namespace tesswave::video {
 namespace {
 
-constexpr uint32_t kVersion = 2;
+constexpr uint32_t kVersion = 3;
 
 void write_u64(ByteWriter& w, uint64_t v) {
     for (int i = 0; i < 8; ++i) w.u8(static_cast<uint8_t>(v >> (8 * i)));
@@ -159,6 +159,10 @@ std::vector<uint8_t> write_twv_group(const TwvGroup& g) {
     w.varint(g.band_norms.size());
     for (float n : g.band_norms) w.f32(n);
     w.varint(g.lifted);
+    if (g.transform == TwiTransform::mesh && g.motion == TwvMotion::tracked) {
+        w.varint(g.extend_x);
+        w.varint(g.extend_y);
+    }
     return std::move(w.data());
 }
 
@@ -187,6 +191,10 @@ std::string twv_group_size_problem(const TwvGroup& g, const TwvHeader& h, const 
     }
     if (g.transform != TwiTransform::mesh) return {};
     if (g.levels < 1 || g.levels > 12) return str("mesh level ", g.levels, " is outside 1..12");
+    if (g.extend_x < 0 || g.extend_y < 0 || g.extend_x > h.width || g.extend_y > h.height) {
+        return str("a canvas of ", h.width + g.extend_x, "x", h.height + g.extend_y,
+                   " is more than twice the frame");
+    }
     const double samples = grid_samples(g.grid_cols, g.grid_rows, g.levels);
     const double cap = limits.max_samples_per_pixel * h.width * h.height + (1 << 20);
     if (samples > static_cast<double>(limits.max_samples) || samples > cap) {
@@ -205,8 +213,9 @@ TwvGroup read_twv_group(std::span<const uint8_t> payload, const TwvHeader& h,
     if (g.transform == TwiTransform::mesh) {
         g.levels = static_cast<int>(r.count("levels", 1, 12));
         g.motion = static_cast<TwvMotion>(r.count("motion", 0, 1));
-        g.grid_cols = static_cast<int>(r.count("grid columns", 1, h.width));
-        g.grid_rows = static_cast<int>(r.count("grid rows", 1, h.height));
+        // A canvas is at most twice the frame a side (its grid too).
+        g.grid_cols = static_cast<int>(r.count("grid columns", 1, int64_t{2} * h.width));
+        g.grid_rows = static_cast<int>(r.count("grid rows", 1, int64_t{2} * h.height));
         const std::string problem = twv_group_size_problem(g, h, limits);
         if (!problem.empty()) r.fail(problem);
     } else {
@@ -226,6 +235,18 @@ TwvGroup read_twv_group(std::span<const uint8_t> payload, const TwvHeader& h,
     }
     if (h.version >= 2) {
         g.lifted = static_cast<int>(r.count("lifted frames", 0, limits.max_lifted_frames));
+    }
+    if (h.version >= 3 && g.transform == TwiTransform::mesh && g.motion == TwvMotion::tracked) {
+        g.extend_x = static_cast<int>(r.count("canvas extension x", 0, h.width));
+        g.extend_y = static_cast<int>(r.count("canvas extension y", 0, h.height));
+        if (g.has_canvas() && g.lifted == 0) r.fail("a canvas in a low-delay group");
+    }
+    if (g.transform == TwiTransform::mesh &&
+        (g.grid_cols > h.width + g.extend_x || g.grid_rows > h.height + g.extend_y)) {
+        r.fail(str("a grid of ", g.grid_cols, "x", g.grid_rows, " cells on ", h.width + g.extend_x,
+                   "x", h.height + g.extend_y, " pixels"));
+    }
+    if (h.version >= 2) {
         const std::string problem = twv_group_size_problem(g, h, limits);
         if (!problem.empty()) r.fail(problem);
     }
@@ -238,6 +259,10 @@ std::vector<uint8_t> write_twv_frame(const TwvFrame& f, const TwvGroup& g) {
     w.varint(f.number);
     w.u8(static_cast<uint8_t>(f.kind));
     w.f32(f.base_step);
+    if (g.has_canvas()) {
+        w.varint(static_cast<uint64_t>(f.window_x));
+        w.varint(static_cast<uint64_t>(f.window_y));
+    }
     if (g.transform == TwiTransform::mesh && g.motion == TwvMotion::tracked) {
         w.varint(f.motion.size());
         w.bytes(f.motion);
@@ -276,6 +301,10 @@ TwvFrame read_twv_frame(std::span<const uint8_t> payload, const TwvGroup& g, con
     }
     f.base_step = r.f32("base step");
     if (!(f.base_step > 0)) r.fail("the base step must be positive");
+    if (g.has_canvas()) {
+        f.window_x = static_cast<int32_t>(r.count("window left", 0, int64_t{4} * g.extend_x));
+        f.window_y = static_cast<int32_t>(r.count("window top", 0, int64_t{4} * g.extend_y));
+    }
     if (g.transform == TwiTransform::mesh && g.motion == TwvMotion::tracked) {
         const int64_t n = r.count("motion bytes", 0, static_cast<int64_t>(r.remaining()));
         const auto bytes = r.bytes(static_cast<size_t>(n), "motion");

@@ -9,9 +9,12 @@
 //     mesh path: motion u8 (0 static, 1 tracked) | grid columns, rows varint (the T0 mesh is
 //     the grid on [0,W]x[0,H]) | per channel: step factor f32 | band count varint | per band:
 //     norm f32 | version 2: lifted frames varint (0: a low-delay group of an intra frame and
-//     closed-loop deltas; n > 0: n frames lifted along the mesh, temporal.h)
+//     closed-loop deltas; n > 0: n frames lifted along the mesh, temporal.h) | version 3, tracked
+//     mesh path: canvas extension x, y varint (pixels, at most W and H; nonzero only in a lifted
+//     group: T0 is the grid on the canvas [0,W+x]x[0,H+y] and each frame a window of it)
 //   'F' frame: frame number varint | kind u8 (0 intra, 1 delta, 2 temporal band: slot t of a
-//     lifted group, which carries frame t's motion) | base step f32 | tracked mesh
+//     lifted group, which carries frame t's motion) | base step f32 | a group with a canvas:
+//     the frame's window on it, left and top varint (1/4 pixels, within the canvas) | tracked mesh
 //     path: motion bytes varint (0: the mesh stays where it was, at rest for an intra frame),
 //     then that many bytes of range-coded vertex motion |
 //     largest bit-plane count u8, and unless it is 0 (nothing to add: the payload ends): per
@@ -25,7 +28,7 @@
 //
 // A file cut anywhere decodes up to its last whole frame chunk (readers scan when the trailer is
 // missing); in a lifted group, the frames whose chunks arrived, the missing bands taken as zero.
-// Version 1 files (no lifted groups) are read as before.
+// Version 1 files (no lifted groups) and version 2 files (no canvas) are read as before.
 #pragma once
 
 #include <cstdint>
@@ -46,7 +49,7 @@ struct TwvHeader {
     int width = 0, height = 0;
     int fps_num = 25, fps_den = 1;
     int channels = 3, bit_depth = 8;
-    int version = 2;  // as read; written files are version 2
+    int version = 3;  // as read; written files are version 3
     double fps() const { return static_cast<double>(fps_num) / fps_den; }
 };
 
@@ -61,6 +64,10 @@ struct TwvGroup {
     std::vector<float> channel_factors = {};  // per channel
     std::vector<float> band_norms = {};       // per band of the coding layout
     int lifted = 0;  // frames of a temporally lifted group; 0: low delay (intra, then deltas)
+    // Tracked mesh path, version 3, lifted groups: the canvas (W + extend_x) x (H + extend_y)
+    // that T0 covers and each frame is a window of (a group whose camera pans); 0 0: the frame.
+    int extend_x = 0, extend_y = 0;
+    bool has_canvas() const { return extend_x > 0 || extend_y > 0; }
 };
 
 enum class TwvFrameKind : uint8_t { intra = 0, delta = 1, band = 2 };
@@ -69,6 +76,8 @@ struct TwvFrame {
     int64_t number = 0;
     TwvFrameKind kind = TwvFrameKind::intra;
     float base_step = 1.0f;
+    // A group with a canvas: where the frame lies on it (its top left corner), in 1/4 pixels.
+    int32_t window_x = 0, window_y = 0;
     std::vector<uint8_t> motion = {};  // range-coded vertex motion (tracked mesh path)
     PlaneCounts planes = {};           // [channel][band]
     std::vector<uint8_t> stream = {};  // bit-planes

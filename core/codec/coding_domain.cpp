@@ -48,6 +48,9 @@ CodingDomain::CodingDomain(DomainShape shape, int probes, std::span<const float>
     } else {
         hierarchy_ = build_hierarchy(s.mesh, {.levels = s.levels, .finest_topology = false});
         layout_ = mesh_layout(*hierarchy_, s.mesh.width * s.mesh.height, probes);
+        if (s.canvas && s.placement != MeshPlacement::area) {
+            throw Error("a canvas mesh is placed by area");
+        }
         if (s.placement == MeshPlacement::centres) {
             // Sample (x, y) is pixel (x, y); past the last column or row it repeats the edge pixel.
             const std::vector<Vec2> p = refine_positions(*hierarchy_, s.mesh.vertices, s.levels);
@@ -63,7 +66,7 @@ CodingDomain::CodingDomain(DomainShape shape, int probes, std::span<const float>
                 if (x < s.width && y < s.height)
                     written_samples_.push_back(static_cast<int32_t>(i));
             }
-        } else {
+        } else if (!s.canvas) {
             rest_plan_ = plan_render(*hierarchy_, s.mesh.vertices, s.mesh.width, s.mesh.height,
                                      s.width, s.height);
         }
@@ -189,6 +192,7 @@ void CodingDomain::sample_into(const Image& image, std::span<const Vec2> vertice
     }
     for (auto& plane : out) plane.resize(size());
     if (pixel_of_sample_.empty()) {
+        if (shape_.canvas && vertices.empty()) throw Error("a canvas needs vertex positions");
         const std::span<const Vec2> at =
             vertices.empty() ? std::span<const Vec2>(shape_.mesh.vertices) : vertices;
         if (sampling == Sampling::fit) {
@@ -217,7 +221,12 @@ void CodingDomain::to_image(const Planes& samples, std::span<const Vec2> vertice
         const std::vector<std::span<const float>> in(samples.begin(), samples.end());
         // At rest (a still image, a static video group, a tracked mesh that has not moved) the
         // plan made with the domain serves: the same plan plan_render would make again.
-        if (vertices.empty() || at_rest(vertices)) {
+        if (shape_.canvas) {
+            if (vertices.empty()) throw Error("a canvas needs vertex positions");
+            render_into(plan_render(*hierarchy_, vertices, shape_.width, shape_.height,
+                                    shape_.width, shape_.height),
+                        in, out);
+        } else if (vertices.empty() || at_rest(vertices)) {
             render_into(*rest_plan_, in, out);
         } else {
             render_into(plan_render(*hierarchy_, vertices, shape_.mesh.width, shape_.mesh.height,

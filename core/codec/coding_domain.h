@@ -49,6 +49,11 @@ struct DomainShape {
     Mesh mesh = {};                                 // mesh path: T0 at rest
     MeshPlacement placement = MeshPlacement::area;  // see TwiHeader
     std::vector<float> channel_factors = {};        // step factor per channel
+    // Mesh path: the mesh's domain is a canvas in the image's pixel units of which each image is
+    // a window (a video group whose camera pans): the vertex positions analyze and synthesize
+    // take are in the image's pixel coordinates, the window's offset taken off, and reach past
+    // the image; there is no rest plan, so positions must be given.
+    bool canvas = false;
 
     bool operator==(const DomainShape&) const = default;
 };
@@ -65,6 +70,7 @@ class CodingDomain {
     const DomainShape& shape() const { return shape_; }
     const CodingLayout& layout() const { return layout_; }
     bool is_mesh() const { return hierarchy_.has_value(); }
+    const Hierarchy* hierarchy() const { return hierarchy_ ? &*hierarchy_ : nullptr; }
     int32_t size() const { return layout_.size; }
 
     // Quantizer step of a band in a channel for a base step, and the steps of every band.
@@ -80,6 +86,13 @@ class CodingDomain {
                  Sampling sampling = Sampling::point, const ProjectOptions& projection = {}) const;
     Planes analyze(const Image& image, Sampling sampling = Sampling::point,
                    const ProjectOptions& projection = {}) const;
+    // analyze() in two steps: the samples of `image` (mesh samples, or pixels), then in place
+    // their coefficients; a caller may change the samples between the two.
+    void sample(const Image& image, std::span<const Vec2> vertices, Planes& out,
+                Sampling sampling = Sampling::point, const ProjectOptions& projection = {}) const {
+        sample_into(image, vertices, out, sampling, projection);
+    }
+    void analyze_samples(Planes& samples) const { transform(samples); }
     // Coefficients of `image` at rest, projected for each of `smoothness` in turn
     // (project_image_each: one assembly, each solve starting from the one before), handed to
     // `take`, which may consume them. Where samples are pixels, the pixels for each.

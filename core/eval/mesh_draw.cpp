@@ -19,9 +19,16 @@ struct Segment {
 
 // Edges of T_0..T_K with their positions, coarse levels last so they are drawn on top.
 std::vector<Segment> segments(const Mesh& mesh, int levels) {
+    std::vector<Segment> out;
+    if (levels == 0) {  // T0's edges alone: no hierarchy, so vertices may lie past the domain
+        for (auto [a, b] : build_edges(mesh).vertices) {
+            out.push_back({mesh.vertices[a], mesh.vertices[b], 0});
+        }
+        for (auto [a, b] : mesh.features) out.push_back({mesh.vertices[a], mesh.vertices[b], -1});
+        return out;
+    }
     const Hierarchy h = build_hierarchy(mesh, {.levels = levels, .max_samples = 20'000'000});
     const auto p = refine_positions(h, mesh.vertices, levels);
-    std::vector<Segment> out;
     for (int j = levels; j >= 0; --j) {
         // T_j's edges are the halves and spokes of level j-1; draw only what T_{j-1} lacks.
         for (auto [a, b] : h.levels[j].edge_v) out.push_back({p[a], p[b], j});
