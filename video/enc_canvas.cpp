@@ -18,6 +18,7 @@
 
 #include "core/math/error.h"
 #include "core/math/hierarchy.h"
+#include "core/math/parallel.h"
 #include "core/math/validate.h"
 #include "enc_video.h"
 #include "mesh_motion.h"
@@ -169,15 +170,14 @@ VideoEncoder::Canvas VideoEncoder::place_canvas() const {
 }
 
 // Fits the mesh on the canvas frame by frame, up to a fit that fails (the group ends there).
-VideoEncoder::GroupFrames VideoEncoder::fit_group(Canvas canvas) {
+VideoEncoder::GroupFrames VideoEncoder::fit_group(Canvas canvas) const {
     GroupFrames out{.canvas = std::move(canvas)};
     const Mesh& rest = out.canvas.domain->shape().mesh;
     const std::vector<Window>& windows = out.canvas.windows;
-    motion_->set_rest(rest);
+    MeshPins pins(rest, options_.mesh_motion);
     std::vector<Vec2> v, before;  // the frame before's positions, and the one before that
     for (size_t t = 0; t < pending_.size(); ++t) {
         const Pending& p = pending_[t];
-        report(options_.progress, 0.2, "fitting the mesh");
         const Vec2 window = windows.empty()
                                 ? Vec2{}
                                 : Vec2{windows[t][0] / kMotionUnit, windows[t][1] / kMotionUnit};
@@ -201,7 +201,7 @@ VideoEncoder::GroupFrames VideoEncoder::fit_group(Canvas canvas) {
                     expected = std::move(ahead.vertices);
                 }
             }
-            const MotionStep step = motion_->fit(p.tracks, expected, window);
+            const MotionStep step = pins.fit(p.tracks, expected, window);
             tracks = step.tracks;
             rms = step.rms;
             if (step.hold) {
@@ -222,7 +222,7 @@ VideoEncoder::GroupFrames VideoEncoder::fit_group(Canvas canvas) {
             out.motion.back() = encode_motion(
                 rest, next, from, t >= 2 ? std::span<const Vec2>(before) : std::span<const Vec2>());
         }
-        motion_->pin(p.tracks, next, t == 0, window);
+        pins.pin(p.tracks, next, t == 0, window);
         before = std::move(v);
         v = std::move(next);
         out.vertices.push_back(v);
@@ -239,14 +239,21 @@ void VideoEncoder::analyze_group(GroupFrames& m) const {
     const CodingDomain& domain = *m.canvas.domain;
     const size_t n = m.vertices.size();
     m.coefficients.assign(n, {});
-    for (size_t t = 0; t < n; ++t) {
-        domain.sample(pending_[t].frame, m.vertices[t], m.coefficients[t], options_.sampling,
-                      options_.projection);
-    }
+    // A frame per core (a frame's own kernels split badly on small frames).
+    parallel_for(static_cast<int64_t>(n), [&](int64_t begin, int64_t end) {
+        for (auto t = static_cast<size_t>(begin); t < static_cast<size_t>(end); ++t) {
+            domain.sample(pending_[t].frame, m.vertices[t], m.coefficients[t], options_.sampling,
+                          options_.projection);
+        }
+    });
     if (m.canvas.group.has_canvas()) {
         fill_unseen(*domain.hierarchy(), m.vertices, header_.width, header_.height, m.coefficients);
     }
-    for (Planes& x : m.coefficients) domain.analyze_samples(x);
+    parallel_for(static_cast<int64_t>(n), [&](int64_t begin, int64_t end) {
+        for (auto t = static_cast<size_t>(begin); t < static_cast<size_t>(end); ++t) {
+            domain.analyze_samples(m.coefficients[t]);
+        }
+    });
 }
 
 std::vector<EncodedFrame> VideoEncoder::code_pending() {
@@ -256,10 +263,19 @@ std::vector<EncodedFrame> VideoEncoder::code_pending() {
         size_t n = pending_.size();
         if (motion_ && !options_.low_delay) {
             // On a canvas when the camera pans, and then on the frame too (the better is kept).
-            meshes.push_back(fit_group(place_canvas()));
-            if (meshes.back().canvas.group.has_canvas()) {
-                meshes.push_back(fit_group({group_, domain_}));
-            }
+            report(options_.progress, 0.2, "fitting the mesh");
+            std::vector<Canvas> canvases = {place_canvas()};
+            if (canvases[0].group.has_canvas()) canvases.push_back({group_, domain_});
+            meshes.resize(canvases.size());
+            parallel_for(
+                static_cast<int64_t>(canvases.size()),
+                [&](int64_t begin, int64_t end) {
+                    for (int64_t k = begin; k < end; ++k) {
+                        const size_t i = static_cast<size_t>(k);
+                        meshes[i] = fit_group(std::move(canvases[i]));
+                    }
+                },
+                1);
             // The group runs as far as a fit holds; a mesh whose fit failed sooner is left out.
             n = 0;
             for (const GroupFrames& m : meshes) n = std::max(n, m.vertices.size());

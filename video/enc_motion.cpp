@@ -7,8 +7,11 @@
 
 namespace tesswave::video {
 
+MeshPins::MeshPins(const Mesh& rest, const MeshMotionOptions& options)
+    : rest_(rest), options_(options) {}
+
 MeshMotion::MeshMotion(const Mesh& rest, const MeshMotionOptions& options)
-    : rest_(rest), options_(options), tracker_(options.tracker) {}
+    : options_(options), tracker_(options.tracker), pins_(rest, options) {}
 
 void MeshMotion::track(const Image& frame) {
     last_live_ = tracks_ ? tracks_->size() : 0;
@@ -33,11 +36,6 @@ Vec2 median_step(std::span<const Track> tracks) {
     return {median(x), median(y)};
 }
 
-void MeshMotion::set_rest(const Mesh& rest) {
-    rest_ = rest;
-    rest_point_.clear();
-}
-
 std::string MeshMotion::cut() const {
     const double threshold = options_.min_carried * static_cast<double>(last_live_);
     if (last_live_ >= 8 &&  // a handful, so that a few lost tracks on flat content are no cut
@@ -50,11 +48,11 @@ std::string MeshMotion::cut() const {
 MotionStep MeshMotion::fit(std::span<const Vec2> previous) const {
     MotionStep step;
     step.failure = cut();
-    return step.failure.empty() ? fit(*tracks_, previous, {}) : step;
+    return step.failure.empty() ? pins_.fit(*tracks_, previous) : step;
 }
 
-MotionStep MeshMotion::fit(std::span<const Track> tracks, std::span<const Vec2> previous,
-                           Vec2 offset) const {
+MotionStep MeshPins::fit(std::span<const Track> tracks, std::span<const Vec2> previous,
+                         Vec2 offset) const {
     MotionStep step;
     std::vector<Vec2> a, b;
     for (const Track& t : tracks) {
@@ -102,11 +100,11 @@ MotionStep MeshMotion::fit(std::span<const Track> tracks, std::span<const Vec2> 
 }
 
 void MeshMotion::pin(std::span<const Vec2> vertices, bool restart) {
-    pin(*tracks_, vertices, restart, {});
+    pins_.pin(*tracks_, vertices, restart);
 }
 
-void MeshMotion::pin(std::span<const Track> tracks, std::span<const Vec2> vertices, bool restart,
-                     Vec2 offset) {
+void MeshPins::pin(std::span<const Track> tracks, std::span<const Vec2> vertices, bool restart,
+                   Vec2 offset) {
     if (restart) rest_point_.clear();
     std::vector<int64_t> ids;
     std::vector<Vec2> points;

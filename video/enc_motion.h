@@ -41,6 +41,26 @@ struct MotionStep {
 // zero with fewer than 3.
 Vec2 median_step(std::span<const Track> tracks);
 
+// Tracks pinned to parametric locations of a mesh at rest, and the fit that carries each pinned
+// point to its track. A frame's pixel p lies at p + `offset` on the mesh's domain (a canvas).
+class MeshPins {
+  public:
+    MeshPins(const Mesh& rest, const MeshMotionOptions& options);
+
+    // The frame's vertices from the pinned tracks among `tracks`, starting from `previous`.
+    MotionStep fit(std::span<const Track> tracks, std::span<const Vec2> previous,
+                   Vec2 offset = {}) const;
+    // Pins the tracks without a pin (born this frame, or every track when `restart`, at a group
+    // start) on the mesh at `vertices`, and forgets the pins of lost tracks.
+    void pin(std::span<const Track> tracks, std::span<const Vec2> vertices, bool restart,
+             Vec2 offset = {});
+
+  private:
+    Mesh rest_;
+    MeshMotionOptions options_;
+    std::unordered_map<int64_t, Vec2> rest_point_;  // per pinned track: its rest position
+};
+
 class MeshMotion {
   public:
     // `rest`: the group's mesh at its rest positions (every group starts there).
@@ -53,29 +73,17 @@ class MeshMotion {
     std::string cut() const;
     // The current frame's vertices from the pinned tracks, starting from `previous`; a cut fails.
     MotionStep fit(std::span<const Vec2> previous) const;
-    // Pins the tracks without a pin (born this frame, or every track when `restart`, at a group
-    // start) on the mesh at `vertices`, and forgets the pins of lost tracks.
+    // Pins the current tracks (MeshPins::pin).
     void pin(std::span<const Vec2> vertices, bool restart);
-
-    // The same for a frame's `tracks` kept from its tracking, on a canvas where the frame's
-    // pixel p lies at p + `offset` (fitting a group after its frames are tracked). fit() checks
-    // no cut.
-    MotionStep fit(std::span<const Track> tracks, std::span<const Vec2> previous,
-                   Vec2 offset) const;
-    void pin(std::span<const Track> tracks, std::span<const Vec2> vertices, bool restart,
-             Vec2 offset);
-    // Another rest mesh (a group's canvas); forgets every pin.
-    void set_rest(const Mesh& rest);
 
     const std::vector<Track>& tracks() const { return *tracks_; }
 
   private:
-    Mesh rest_;
     MeshMotionOptions options_;
     Tracker tracker_;
+    MeshPins pins_;
     const std::vector<Track>* tracks_ = nullptr;
     size_t last_live_ = 0, carried_ = 0;  // tracks alive in the frame before, carried from it
-    std::unordered_map<int64_t, Vec2> rest_point_;  // per pinned track: its rest position
 };
 
 }  // namespace tesswave::video

@@ -189,7 +189,7 @@ class VideoEncoder {
     };
     std::vector<EncodedFrame> encode_lifted_tracked(const Image& frame, EncodedFrame info);
     Canvas place_canvas() const;
-    GroupFrames fit_group(Canvas canvas);
+    GroupFrames fit_group(Canvas canvas) const;
     void analyze_group(GroupFrames& frames) const;
     std::vector<EncodedFrame> code_pending();
     void start_group(int64_t number);
