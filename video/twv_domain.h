@@ -19,7 +19,8 @@ namespace tesswave::video {
 using tesswave::Planes;
 
 // Norms are measured (encoder) when `measure_norms`, else taken from the group (decoder). From
-// the domain cache (shared_domain): an encoder and decoder in one process share the hierarchy.
+// the domain cache (shared_domain): an encoder and decoder in one process share the hierarchy;
+// a canvas is built for its group alone.
 std::shared_ptr<const CodingDomain> group_domain(const TwvHeader& header, const TwvGroup& group,
                                                  bool measure_norms);
 

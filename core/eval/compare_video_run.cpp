@@ -111,6 +111,9 @@ int64_t encode_ours(const RunContext& c, VideoMethod method, double target_bpp,
     if (groups.grid_groups > 0) {
         row.setting += str(", ", groups.grid_groups, "/", groups.groups, " groups grid");
     }
+    if (groups.canvas_groups > 0) {
+        row.setting += str(", ", groups.canvas_groups, "/", groups.groups, " groups on a canvas");
+    }
     return bytes;
 }
 
