@@ -87,6 +87,15 @@ void write_debug_frame(const std::string& dir, const video::EncodedFrame& coded,
     write_image(picture, (fs::path(dir) / name).string());
 }
 
+// The debug picture of a coded frame whose source `kept` holds (which then forgets it).
+void draw_kept(std::map<int64_t, Image>& kept, const std::string& dir,
+               const video::EncodedFrame& coded) {
+    const auto it = kept.find(coded.number);
+    if (it == kept.end()) return;
+    write_debug_frame(dir, coded, it->second);
+    kept.erase(it);
+}
+
 void run_encode(const EncodeArgs& a) {
     check_output(a.output, a.overwrite, {a.input});
     if (!a.debug_dir.empty()) check_folder(a.debug_dir, a.overwrite, {a.input});
@@ -146,10 +155,7 @@ void run_encode(const EncodeArgs& a) {
     std::map<int64_t, Image> drawn;  // --debug-dir: frames given and not yet coded
     // A coded frame: its line in --json, its PSNR, the warnings it brings.
     const auto take = [&](const video::EncodedFrame& f) {
-        if (const auto it = drawn.find(f.number); it != drawn.end()) {
-            write_debug_frame(a.debug_dir, f, it->second);
-            drawn.erase(it);
-        }
+        draw_kept(drawn, a.debug_dir, f);
         psnr_sum += std::min(f.psnr, 100.0);  // identical frames count as 100 dB, as x264 does
         if (o.quality > 0 && f.first_in_group && f.quality_target < o.quality && !a.json) {
             char line[160];
@@ -354,10 +360,7 @@ std::vector<std::string> video_demo(const std::string& clip, const std::string& 
                 psnr[k] += std::min(f.psnr, 100.0);
                 groups += f.first_in_group;
                 ++n;
-                if (const auto it = drawn.find(f.number); it != drawn.end()) {
-                    write_debug_frame(mesh_dir, f, it->second);
-                    drawn.erase(it);
-                }
+                draw_kept(drawn, mesh_dir, f);
             }
         };
         for (int64_t given = 0; source.read(frame); ++given) {

@@ -332,6 +332,67 @@ TEST(TwvRobustness, CanvasesAndWindowsOutsideTheirLimitsAreRefused) {
     EXPECT_THROW(read_twv_frame(write_twv_frame(outside, g), g, header, "f"), Error);
 }
 
+// Two groups that differ only in their canvas do not share a coding domain: a crafted second
+// group with the first one's grid and norms but a wider canvas decodes as it does alone (read
+// straight through, the decoder once kept the first group's narrower canvas for it).
+TEST(TwvRobustness, AGroupOnAnotherCanvasGetsItsOwnDomain) {
+    // Two scenes of 8 frames, panning 0.5 and 1.5 pixels a frame: canvases 8 and 16 pixels wider.
+    samples::SampleClipOptions a{.width = 176, .height = 144, .frames = 8, .pan = {0.5, 0}};
+    samples::SampleClipOptions b = a;
+    b.pan = {1.5, 0};
+    b.seed = 2;
+    const std::string path = temp_path("two_canvases.twv");
+    {
+        VideoEncoder encoder(path, a.width, a.height, 25,
+                             {.group = 8, .kbps = 200, .grid_groups = false});
+        for (int t = 0; t < 8; ++t) encoder.encode(samples::sample_clip_frame(a, t));
+        for (int t = 0; t < 8; ++t) encoder.encode(samples::sample_clip_frame(b, t));
+        encoder.finish();
+    }
+    Bytes file = read_bytes(path);
+    size_t at = 0;
+    const TwvHeader header = read_twv_header(file, path, at);
+    std::vector<std::pair<size_t, TwvGroup>> groups;  // chunk offset, group
+    while (at + kTwvTrailerBytes < file.size()) {
+        ByteReader r(std::span<const uint8_t>(file).subspan(at), "chunk");
+        const uint32_t tag = r.u8("tag");
+        const auto size = r.varint("size");
+        const auto payload = r.bytes(size, "payload");
+        if (tag == 'G') groups.emplace_back(at, read_twv_group(payload, header, "group"));
+        at += r.position() + 4;
+        if (tag == 'I') break;
+    }
+    ASSERT_EQ(groups.size(), 2u);
+    const TwvGroup& first = groups[0].second;
+    TwvGroup second = groups[1].second;
+    ASSERT_TRUE(first.has_canvas() && second.has_canvas());
+    ASSERT_LT(first.extend_x, second.extend_x);
+    // The second group as the first in all but its canvas (its own norms taken away).
+    ASSERT_EQ(first.grid_cols, second.grid_cols);
+    ASSERT_EQ(first.grid_rows, second.grid_rows);
+    second.band_norms = first.band_norms;
+    const Bytes chunk = twv_chunk('G', write_twv_group(second));
+    ByteReader old(std::span<const uint8_t>(file).subspan(groups[1].first), "chunk");
+    old.u8("tag");
+    const auto old_payload = old.varint("size");
+    ASSERT_EQ(chunk.size(), old.position() + old_payload + 4);  // the file's offsets hold
+    std::copy(chunk.begin(), chunk.end(),
+              file.begin() + static_cast<std::ptrdiff_t>(groups[1].first));
+    write_bytes(path, file);
+
+    VideoDecoder through(path);
+    VideoDecoder alone(path);
+    ASSERT_TRUE(alone.seek(8)) << alone.damage();
+    Image frame, expected;
+    for (int t = 0; t < 8; ++t) ASSERT_TRUE(through.read(frame)) << through.damage();
+    for (int t = 8; t < 16; ++t) {
+        ASSERT_TRUE(through.read(frame)) << t << ": " << through.damage();
+        ASSERT_TRUE(alone.read(expected)) << t << ": " << alone.damage();
+        EXPECT_EQ(frame.planes, expected.planes) << t;
+    }
+    fs::remove(path);
+}
+
 // The reliability issue's .twv probes: a 123-byte file of 8192x8192 frames made `info` use
 // 12 GiB (it decoded every frame) and `decode` run for minutes. The header's frame size is now
 // weighed against the file's bytes (trusting limits let it through), and describing a file reads

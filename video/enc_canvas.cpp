@@ -4,10 +4,10 @@
 //
 // A frame's offset is the camera's motion since the group's first frame: the sum of the median
 // steps of the tracks carried from frame to frame (median_step). The canvas extends the frame by
-// the span of the offsets (rounded up to 8 pixels, at most half the frame a side), with T0's grid
-// over it at the frame's cell size; each frame is a window on it at its offset. The mesh is fitted
-// on the canvas, so that it follows the pan by moving the window, not by stretching the cells
-// at the border where new content enters (aerial, a 30-pixel pan in 16 frames: the top row of
+// the span of the offsets (held within half the frame a side, rounded up to 8 pixels), with T0's
+// grid over it at the frame's cell size; each frame is a window on it at its offset. The mesh is
+// fitted on the canvas, so that it follows the pan by moving the window, not by stretching the
+// cells at the border where new content enters (aerial, a 30-pixel pan in 16 frames: the top row of
 // cells grew 1.6x and the bottom ones shrank to half). Samples a frame does not see take their
 // value from the nearest frame that does, so that they add nothing to the temporal detail.
 // Such a group is fitted and coded on the frame as well, and the better coding kept: a handheld
@@ -75,11 +75,23 @@ void fill_unseen(const Hierarchy& h, std::span<const std::vector<Vec2>> vertices
     }
 }
 
+// The least and largest offsets, x and y apart.
+struct OffsetSpan {
+    double lo[2] = {std::numeric_limits<double>::infinity(),
+                    std::numeric_limits<double>::infinity()};
+    double hi[2] = {-lo[0], -lo[1]};
+    void add(Vec2 o) {
+        lo[0] = std::min(lo[0], o.x), hi[0] = std::max(hi[0], o.x);
+        lo[1] = std::min(lo[1], o.y), hi[1] = std::max(hi[1], o.y);
+    }
+};
+
 }  // namespace
 
 std::vector<EncodedFrame> VideoEncoder::encode_lifted_tracked(const Image& frame,
                                                               EncodedFrame info) {
-    bool intra = frames_ == 0 || in_group_ >= group_length_;
+    // A group starts with the clip, after a full group or a flush, or at a cut.
+    bool intra = pending_.empty() || in_group_ >= group_length_;
     if (!intra) {
         info.new_group = motion_->cut();
         intra = !info.new_group.empty();
@@ -89,18 +101,16 @@ std::vector<EncodedFrame> VideoEncoder::encode_lifted_tracked(const Image& frame
         // The content moved by the tracks' step, so the camera by its opposite; the span of a
         // group's offsets is held within the largest canvas.
         offset = pending_.back().offset - median_step(motion_->tracks());
-        double lo_x = offset.x, hi_x = offset.x, lo_y = offset.y, hi_y = offset.y;
-        for (const Pending& p : pending_) {
-            lo_x = std::min(lo_x, p.offset.x), hi_x = std::max(hi_x, p.offset.x);
-            lo_y = std::min(lo_y, p.offset.y), hi_y = std::max(hi_y, p.offset.y);
-        }
+        OffsetSpan span;
+        span.add(offset);
+        for (const Pending& p : pending_) span.add(p.offset);
         const double most_x = kMostExtension * header_.width;
         const double most_y = kMostExtension * header_.height;
-        offset.x = std::clamp(offset.x, hi_x - most_x, lo_x + most_x);
-        offset.y = std::clamp(offset.y, hi_y - most_y, lo_y + most_y);
+        offset.x = std::clamp(offset.x, span.hi[0] - most_x, span.lo[0] + most_x);
+        offset.y = std::clamp(offset.y, span.hi[1] - most_y, span.lo[1] + most_y);
     }
     std::vector<EncodedFrame> done;
-    if (intra && !pending_.empty()) done = code_pending();
+    if (intra && !pending_.empty()) done = code_pending(false);
     pending_.push_back({.frame = frame,
                         .coefficients = {},
                         .vertices = {},
@@ -111,7 +121,7 @@ std::vector<EncodedFrame> VideoEncoder::encode_lifted_tracked(const Image& frame
     in_group_ = intra ? 1 : in_group_ + 1;
     ++frames_;
     if (in_group_ >= group_length_) {
-        for (EncodedFrame& e : code_pending()) done.push_back(std::move(e));
+        for (EncodedFrame& e : code_pending(true)) done.push_back(std::move(e));
     }
     return done;
 }
@@ -120,12 +130,10 @@ std::vector<EncodedFrame> VideoEncoder::encode_lifted_tracked(const Image& frame
 // when they need none.
 VideoEncoder::Canvas VideoEncoder::place_canvas() const {
     Canvas c{group_, domain_};
-    double lo[2] = {std::numeric_limits<double>::infinity(), 0}, hi[2] = {-lo[0], 0};
-    lo[1] = lo[0], hi[1] = hi[0];
-    for (const Pending& p : pending_) {
-        lo[0] = std::min(lo[0], p.offset.x), hi[0] = std::max(hi[0], p.offset.x);
-        lo[1] = std::min(lo[1], p.offset.y), hi[1] = std::max(hi[1], p.offset.y);
-    }
+    OffsetSpan offsets;
+    for (const Pending& p : pending_) offsets.add(p.offset);
+    const double* lo = offsets.lo;
+    const double* hi = offsets.hi;
     const int size[2] = {header_.width, header_.height};
     int extend[2] = {0, 0};
     for (int a = 0; a < 2; ++a) {
@@ -178,43 +186,21 @@ VideoEncoder::GroupFrames VideoEncoder::fit_group(Canvas canvas) const {
     std::vector<Vec2> v, before;  // the frame before's positions, and the one before that
     for (size_t t = 0; t < pending_.size(); ++t) {
         const Pending& p = pending_[t];
-        const Vec2 window = windows.empty()
-                                ? Vec2{}
-                                : Vec2{windows[t][0] / kMotionUnit, windows[t][1] / kMotionUnit};
+        const Vec2 window = windows.empty() ? Vec2{} : window_offset(windows[t][0], windows[t][1]);
         std::vector<Vec2> next;
         int tracks = 0;
         double rms = 0;
         if (t == 0) {
             next = rest.vertices;
         } else {
-            // The temporal term pulls towards constant velocity (no lag on steady motion) when
-            // that extrapolation is a valid mesh, else towards the last positions.
-            std::vector<Vec2> expected = v;
-            if (t >= 2) {
-                Mesh ahead = rest;
-                for (size_t i = 0; i < expected.size(); ++i) {
-                    const Vec2 q = 2.0 * v[i] - before[i];
-                    ahead.vertices[i] = {std::clamp(q.x, 0.0, rest.width),
-                                         std::clamp(q.y, 0.0, rest.height)};
-                }
-                if (validate(ahead, {.max_problems = 1}).ok()) {
-                    expected = std::move(ahead.vertices);
-                }
-            }
+            const std::vector<Vec2> expected = expected_positions(
+                rest, v, t >= 2 ? std::span<const Vec2>(before) : std::span<const Vec2>());
             const MotionStep step = pins.fit(p.tracks, expected, window);
             tracks = step.tracks;
             rms = step.rms;
-            if (step.hold) {
-                next = v;
-            } else if (step.vertices) {
-                next = round_to_motion_unit(*step.vertices);
-                if (!validate(rest, next, {.max_problems = 1}).ok()) {
-                    out.failure = "the mesh is invalid at the file's 1/4-pixel precision";
-                }
-            } else {
-                out.failure = step.failure;
-            }
-            if (!out.failure.empty()) break;
+            auto positions = step_positions(rest, step, v, out.failure);
+            if (!positions) break;
+            next = std::move(*positions);
         }
         const std::vector<Vec2>& from = t == 0 ? rest.vertices : v;
         out.motion.emplace_back();
@@ -256,7 +242,7 @@ void VideoEncoder::analyze_group(GroupFrames& m) const {
     });
 }
 
-std::vector<EncodedFrame> VideoEncoder::code_pending() {
+std::vector<EncodedFrame> VideoEncoder::code_pending(bool keep_rest) {
     std::vector<EncodedFrame> done;
     while (!pending_.empty()) {
         std::vector<GroupFrames> meshes;
@@ -297,6 +283,12 @@ std::vector<EncodedFrame> VideoEncoder::code_pending() {
         pending_.resize(n);
         for (EncodedFrame& e : code_lifted_group(std::move(meshes))) done.push_back(std::move(e));
         pending_ = std::move(later);
+        // A full group whose fit failed before its end: the frames after the failure start the
+        // next group, which runs on to a full length.
+        if (keep_rest && !pending_.empty()) {
+            in_group_ = static_cast<int64_t>(pending_.size());
+            break;
+        }
     }
     return done;
 }

@@ -4,6 +4,8 @@
 
 #include "core/math/error.h"
 #include "core/math/strings.h"
+#include "core/math/validate.h"
+#include "mesh_motion.h"
 
 namespace tesswave::video {
 
@@ -18,6 +20,33 @@ void MeshMotion::track(const Image& frame) {
     tracks_ = &tracker_.next(frame);
     carried_ = static_cast<size_t>(
         std::count_if(tracks_->begin(), tracks_->end(), [](const Track& t) { return !t.born; }));
+}
+
+std::vector<Vec2> expected_positions(const Mesh& rest, std::span<const Vec2> last,
+                                     std::span<const Vec2> before) {
+    std::vector<Vec2> ahead(last.begin(), last.end());
+    if (before.empty()) return ahead;
+    for (size_t i = 0; i < ahead.size(); ++i) {
+        const Vec2 p = 2.0 * last[i] - before[i];
+        ahead[i] = {std::clamp(p.x, 0.0, rest.width), std::clamp(p.y, 0.0, rest.height)};
+    }
+    if (validate(rest, ahead, {.max_problems = 1}).ok()) return ahead;
+    return {last.begin(), last.end()};
+}
+
+std::optional<std::vector<Vec2>> step_positions(const Mesh& rest, const MotionStep& step,
+                                                std::span<const Vec2> last, std::string& failure) {
+    if (step.hold) return std::vector<Vec2>(last.begin(), last.end());
+    if (!step.vertices) {
+        failure = step.failure;
+        return std::nullopt;
+    }
+    std::vector<Vec2> v = round_to_motion_unit(*step.vertices);
+    if (!validate(rest, v, {.max_problems = 1}).ok()) {
+        failure = "the mesh is invalid at the file's 1/4-pixel precision";
+        return std::nullopt;
+    }
+    return v;
 }
 
 Vec2 median_step(std::span<const Track> tracks) {

@@ -37,6 +37,16 @@ struct MotionStep {
     double rms = 0;       // of the fit's inliers, px
 };
 
+// Where the temporal term pulls a frame's vertices: towards constant velocity from `before` to
+// `last` (no lag on steady motion) when that extrapolation, held within the domain, is a valid
+// mesh; else towards `last`. `before` empty: `last`.
+std::vector<Vec2> expected_positions(const Mesh& rest, std::span<const Vec2> last,
+                                     std::span<const Vec2> before);
+// The positions a fit step gives on the motion grid: `last` when it holds, none (and `failure`
+// says why) when it failed or its rounded positions are not a valid mesh.
+std::optional<std::vector<Vec2>> step_positions(const Mesh& rest, const MotionStep& step,
+                                                std::span<const Vec2> last, std::string& failure);
+
 // The median step of the tracks carried from the frame before (x and y apart): the camera's pan;
 // zero with fewer than 3.
 Vec2 median_step(std::span<const Track> tracks);

@@ -266,32 +266,15 @@ std::vector<EncodedFrame> VideoEncoder::encode(const Image& frame) {
     bool intra = frames_ == 0 || in_group_ >= group_length_;
     std::vector<Vec2> v;
     if (!intra && motion_) {
-        // The temporal term pulls towards constant velocity (no lag on steady motion) when that
-        // extrapolation is a valid mesh, else towards the last positions.
-        std::vector<Vec2> expected = vertices_;
-        if (in_group_ >= 2) {
-            Mesh ahead = *rest;
-            for (size_t i = 0; i < expected.size(); ++i) {
-                const Vec2 p = 2.0 * vertices_[i] - previous_[i];
-                ahead.vertices[i] = {std::clamp(p.x, 0.0, rest->width),
-                                     std::clamp(p.y, 0.0, rest->height)};
-            }
-            if (validate(ahead, {.max_problems = 1}).ok()) expected = std::move(ahead.vertices);
-        }
+        const std::vector<Vec2> expected = expected_positions(
+            *rest, vertices_,
+            in_group_ >= 2 ? std::span<const Vec2>(previous_) : std::span<const Vec2>());
         report(progress, 0.2, "fitting the mesh");
         const MotionStep step = motion_->fit(expected);
         info.tracks = step.tracks;
         info.fit_rms = step.rms;
-        if (step.hold) {
-            v = vertices_;
-        } else if (step.vertices) {
-            v = round_to_motion_unit(*step.vertices);
-            if (!validate(*rest, v, {.max_problems = 1}).ok()) {
-                info.new_group = "the mesh is invalid at the file's 1/4-pixel precision";
-            }
-        } else {
-            info.new_group = step.failure;
-        }
+        if (auto next = step_positions(*rest, step, vertices_, info.new_group))
+            v = std::move(*next);
         intra = !info.new_group.empty();
     }
     std::vector<EncodedFrame> done;

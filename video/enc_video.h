@@ -8,7 +8,8 @@
 // rate-distortion slope (allocation.h), so the rate lands on the target; --psnr quantizes every
 // band with the step at which the group's mean PSNR reaches the target (measured on every
 // fourth frame), and keeps every bit-plane. A tracked group is also coded on the static mesh, a
-// mesh group (grid_groups) on the fixed-grid 9/7 as well, and the best of the codings is kept.
+// mesh group (grid_groups) on the fixed-grid 9/7 as well, and the best of the codings is kept;
+// a tracked group whose camera pans is coded on a canvas and on the frame (enc_canvas.cpp).
 // Frames come out of encode() when their group is coded (a group's length of latency).
 //
 // With low_delay, a group starts with an intra frame and every later frame codes the delta
@@ -157,8 +158,9 @@ class VideoEncoder {
 
   private:
     // A frame of a lifted group, waiting for the group to be coded. A tracked group's frames
-    // keep their tracks and the camera's offset since the group's first frame (the frame's pixel
-    // p lies at p + offset there), and are fitted and analysed when the group is complete.
+    // keep their tracks and the camera's offset (the frame's pixel p lies at p + offset in an
+    // earlier pending frame's pixels; only differences count), and are fitted and analysed when
+    // the group is complete.
     struct Pending {
         Image frame;
         Planes coefficients;
@@ -191,7 +193,9 @@ class VideoEncoder {
     Canvas place_canvas() const;
     GroupFrames fit_group(Canvas canvas) const;
     void analyze_group(GroupFrames& frames) const;
-    std::vector<EncodedFrame> code_pending();
+    // Codes the pending frames, in as many groups as their fits allow; with `keep_rest`, the
+    // frames after the first group's failed fit stay pending as the next group's start.
+    std::vector<EncodedFrame> code_pending(bool keep_rest = false);
     void start_group(int64_t number);
     EncodedFrame encode_low_delay(const Image& frame, EncodedFrame info, TwvFrame& f,
                                   uint64_t start);

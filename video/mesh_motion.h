@@ -28,7 +28,7 @@ std::vector<uint8_t> encode_motion(const Mesh& mesh, std::span<const Vec2> curre
 
 // The inverse. Throws Error (prefixed by `what`) for a truncated stream, positions outside
 // [0,W]x[0,H], or positions that do not make `mesh` valid.
-// `fast_start`: the models learn fast while fresh (version 2 files; range_coder.h).
+// `fast_start`: the models learn fast while fresh (version 2 files and later; range_coder.h).
 std::vector<Vec2> decode_motion(std::span<const uint8_t> bytes, std::span<const Vec2> previous,
                                 std::span<const Vec2> before, const Mesh& mesh,
                                 const std::string& what, bool fast_start = true);

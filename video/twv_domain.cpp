@@ -43,8 +43,10 @@ std::shared_ptr<const CodingDomain> group_domain(const TwvHeader& header, const 
     return shared_domain(shape, probes, norms);
 }
 
+Vec2 window_offset(int32_t left, int32_t top) { return {left / kMotionUnit, top / kMotionUnit}; }
+
 std::vector<Vec2> window_vertices(std::span<const Vec2> canvas, const TwvFrame& frame) {
-    const Vec2 window{frame.window_x / kMotionUnit, frame.window_y / kMotionUnit};
+    const Vec2 window = window_offset(frame.window_x, frame.window_y);
     std::vector<Vec2> out(canvas.begin(), canvas.end());
     for (Vec2& p : out) p = p - window;
     return out;

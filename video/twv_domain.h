@@ -27,16 +27,19 @@ std::shared_ptr<const CodingDomain> group_domain(const TwvHeader& header, const 
 // Decodes a frame's bit-planes and adds the dequantized residual to `coefficients` (the previous
 // frame's decoded coefficients, or zeros for an intra frame): the one step the encoder and the
 // decoder share, so that both hold the same coefficients to the bit.
-// `fast_start`: the coder's models learn fast while fresh (version 2 files; range_coder.h).
-// Canvas positions in the frame's pixels: less the frame's window (1/4-pixel units).
-std::vector<Vec2> window_vertices(std::span<const Vec2> canvas, const TwvFrame& frame);
-
+// `fast_start`: the coder's models learn fast while fresh (version 2 files and later;
+// range_coder.h).
 void add_decoded_residual(const CodingDomain& domain, const TwvFrame& frame, Planes& coefficients,
                           bool fast_start = true);
 
 // A lifted group's frame coefficients from its temporal bands: bands[t] is slot t, slots from
 // bands.size() up to `frames` (a group cut short) are zero; then the temporal inverse. The one
 // path of the encoder's reconstruction and the decoder.
+// A window's place on its canvas in pixels, from its left and top in 1/4 pixels; and canvas
+// positions in the frame's pixels (less the frame's window): the encoder's and decoder's one way.
+Vec2 window_offset(int32_t left, int32_t top);
+std::vector<Vec2> window_vertices(std::span<const Vec2> canvas, const TwvFrame& frame);
+
 std::vector<Planes> decode_lifted_group(const CodingDomain& domain, std::span<const TwvFrame> bands,
                                         int frames);
 

@@ -18,9 +18,9 @@
 //     path: motion bytes varint (0: the mesh stays where it was, at rest for an intra frame),
 //     then that many bytes of range-coded vertex motion |
 //     largest bit-plane count u8, and unless it is 0 (nothing to add: the payload ends): per
-//     channel and band, bit-planes u8 (version 2 with a largest count of at most 15: two a byte,
-//     low nibble first, the last high nibble 0) | the embedded bit-plane stream (rest of the
-//     payload)
+//     channel and band, bit-planes u8 (version 2 and later, with a largest count of at most 15: two
+//     a byte, low nibble first, the last high nibble 0) | the embedded bit-plane stream (rest of
+//     the payload)
 //   'I' index: frame count varint | group count varint | per group: chunk offset (delta from the
 //     previous group's, varint) and first frame varint | per frame: chunk offset (delta from the
 //     previous frame's, varint)
