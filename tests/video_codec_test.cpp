@@ -1,5 +1,6 @@
 // The .twv video codec: closed-loop bit-exactness, delta frames of a still clip, tracking a known
-// pan, the moving mesh against the static mesh, seeking, cut files.
+// pan, the moving mesh against the static mesh, a canvas for a panning camera, seeking, cut files.
+// Lifted groups' rate, quality, chroma and grid candidate: video_lifted_test.cpp.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -14,79 +15,16 @@
 #include "core/math/metrics.h"
 #include "core/math/parallel.h"
 #include "samples/sample_clip.h"
-#include "temp_dir.h"
 #include "video/dec_video.h"
 #include "video/enc_video.h"
+#include "video_testing.h"
 
 namespace tesswave::video {
 namespace {
 
 namespace fs = std::filesystem;
 
-struct Coded {
-    std::vector<Image> reconstructions;
-    std::vector<EncodedFrame> frames;
-    std::vector<std::vector<Vec2>> vertices;
-    int64_t bytes = 0;
-};
-
-std::string temp_path(const std::string& name) {
-    static const testing::TempDir dir("video_test");
-    return dir / name;
-}
-
-std::vector<Image> clip(const samples::SampleClipOptions& o) {
-    std::vector<Image> frames;
-    for (int t = 0; t < o.frames; ++t) frames.push_back(samples::sample_clip_frame(o, t));
-    return frames;
-}
-
-Coded encode(const std::vector<Image>& frames, const std::string& path,
-             const VideoEncodeOptions& options) {
-    VideoEncoder encoder(path, frames[0].width, frames[0].height, 25, options);
-    Coded out;
-    const auto take = [&](std::vector<EncodedFrame> done) {
-        for (EncodedFrame& f : done) {
-            out.reconstructions.push_back(std::move(f.reconstruction));
-            out.vertices.push_back(f.vertices);
-            out.frames.push_back(std::move(f));
-        }
-    };
-    for (const Image& f : frames) take(encoder.encode(f));
-    take(encoder.flush());
-    out.bytes = encoder.finish();
-    return out;
-}
-
-std::vector<Image> decode_all(const std::string& path, std::string* damage = nullptr) {
-    VideoDecoder decoder(path);
-    std::vector<Image> out;
-    Image frame;
-    while (decoder.read(frame)) out.push_back(frame);
-    if (damage) *damage = decoder.damage();
-    return out;
-}
-
-void expect_identical(const Image& a, const Image& b) {
-    ASSERT_EQ(a.width, b.width);
-    ASSERT_EQ(a.height, b.height);
-    ASSERT_EQ(a.planes, b.planes);  // every float, bit for bit
-}
-
-double mean_psnr(const Coded& c) {
-    double sum = 0;
-    for (const EncodedFrame& f : c.frames) sum += f.psnr;
-    return sum / static_cast<double>(c.frames.size());
-}
-
-samples::SampleClipOptions small_pan() {
-    return {.width = 64, .height = 48, .frames = 6, .pan = {1.25, 0.5}, .object = true};
-}
-
-// A slower pan with the moving disk, for the lifted groups' rate and quality tests.
-samples::SampleClipOptions slow_pan(int frames) {
-    return {.width = 96, .height = 64, .frames = frames, .pan = {0.75, 0.25}, .object = true};
-}
+using namespace testing_video;  // NOLINT: the helpers of these tests
 
 // Rate and quality pinned from both sides, as the still codec's are: any change of the coder that
 // moves them is seen here (update the pins, with the reason, in the same commit).
@@ -440,187 +378,6 @@ TEST(VideoCodec, QualityTargetsMetOrLoweredToTheMeshCeiling) {
         encode(frames, path, {.transform = TwiTransform::grid53, .low_delay = true, .quality = 60});
     EXPECT_EQ(grid.frames[0].quality_target, 60);  // the grid reaches it
     EXPECT_GE(grid.frames[0].psnr, 60);
-    fs::remove(path);
-}
-
-}  // namespace
-}  // namespace tesswave::video
-
-namespace tesswave::video {
-namespace {
-
-// Lifted groups: one slope across a group's temporal bands lands the rate on the target, and the
-// group is coded far better than closed-loop deltas at that rate.
-TEST(VideoCodec, LiftedGroupsLandOnTheRateAndBeatLowDelay) {
-    const std::vector<Image> frames = clip(slow_pan(40));
-    const std::string path = temp_path("lifted.twv");
-    for (TwiTransform transform : {TwiTransform::mesh, TwiTransform::grid53}) {
-        for (double kbps : {60.0, 250.0}) {
-            SCOPED_TRACE(::testing::Message() << static_cast<int>(transform) << ", " << kbps);
-            const double target = kbps * 1000 / 8 * 40 / 25;  // bytes
-            const Coded lifted =
-                encode(frames, path, {.transform = transform, .group = 16, .kbps = kbps});
-            const Coded low_delay =
-                encode(frames, path,
-                       {.transform = transform, .group = 16, .low_delay = true, .kbps = kbps});
-            std::printf("%s %.0f kbit/s: lifted %lld bytes %.2f dB, low delay %lld bytes %.2f dB\n",
-                        transform == TwiTransform::mesh ? "mesh" : "grid", kbps,
-                        static_cast<long long>(lifted.bytes), mean_psnr(lifted),
-                        static_cast<long long>(low_delay.bytes), mean_psnr(low_delay));
-            EXPECT_NEAR(static_cast<double>(lifted.bytes), target, 0.03 * target);
-            EXPECT_GT(mean_psnr(lifted), mean_psnr(low_delay) + 1.0);
-        }
-    }
-    fs::remove(path);
-}
-
-TEST(VideoCodec, LiftedIdenticalFramesCostAFewBytesEach) {
-    const samples::SampleClipOptions o{.width = 96, .height = 64, .frames = 1};
-    const std::vector<Image> frames(8, samples::sample_clip_frame(o, 0));
-    const std::string path = temp_path("lifted_still.twv");
-    const Coded coded = encode(frames, path, {.quality = 36, .grid_groups = false});
-    EXPECT_GT(coded.frames[0].bytes, 1000);
-    for (size_t i = 1; i < frames.size(); ++i) {
-        EXPECT_EQ(coded.frames[i].kind, TwvFrameKind::band);
-        EXPECT_LE(coded.frames[i].bytes, 24) << "frame " << i;
-        EXPECT_NEAR(coded.frames[i].psnr, coded.frames[0].psnr, 1e-3);
-    }
-    EXPECT_GE(coded.frames[0].psnr, 36);
-    fs::remove(path);
-}
-
-// 4:2:0: the finest chroma detail is not coded, so at the same rate luma gets more of the bytes.
-TEST(VideoCodec, Chroma420LeavesOutTheFinestChromaDetail) {
-    const std::vector<Image> frames = clip(small_pan());
-    const std::string path = temp_path("chroma.twv");
-    const auto luma_psnr = [&](const Coded& c) {
-        double sum = 0;
-        for (size_t t = 0; t < frames.size(); ++t) {
-            Image y = make_image(frames[t].width, frames[t].height, 1), y_ref = y;
-            for (size_t i = 0; i < y.planes[0].size(); ++i) {
-                const auto luma = [&](const Image& im) {
-                    return 0.299f * im.planes[0][i] + 0.587f * im.planes[1][i] +
-                           0.114f * im.planes[2][i];
-                };
-                y.planes[0][i] = luma(c.reconstructions[t]);
-                y_ref.planes[0][i] = luma(frames[t]);
-            }
-            sum += psnr(y_ref, y).all;
-        }
-        return sum / static_cast<double>(frames.size());
-    };
-    for (TwiTransform transform : {TwiTransform::mesh, TwiTransform::grid53}) {
-        SCOPED_TRACE(static_cast<int>(transform));
-        const Coded full =
-            encode(frames, path, {.transform = transform, .kbps = 300, .grid_groups = false});
-        const Coded sub =
-            encode(frames, path,
-                   {.transform = transform, .chroma_420 = true, .kbps = 300, .grid_groups = false});
-        std::printf("luma %.2f dB with 4:4:4, %.2f dB with 4:2:0 (all: %.2f, %.2f)\n",
-                    luma_psnr(full), luma_psnr(sub), mean_psnr(full), mean_psnr(sub));
-        EXPECT_NEAR(static_cast<double>(sub.bytes), static_cast<double>(full.bytes),
-                    0.02 * static_cast<double>(full.bytes));
-        // The grid's finest level is the pixels': its chroma detail costs the most (measured
-        // 49.01 -> 49.28 dB). The mesh at density 2 is finer than the pixels, and the cut leaves
-        // little of its finest chroma level anyway (45.34 -> 45.46 dB).
-        EXPECT_GT(luma_psnr(sub),
-                  luma_psnr(full) + (transform == TwiTransform::mesh ? 0.05 : 0.15));
-    }
-    fs::remove(path);
-}
-
-}  // namespace
-}  // namespace tesswave::video
-
-namespace tesswave::video {
-namespace {
-
-// --psnr with lifted groups: each group's mean PSNR within 0.5 dB of the target.
-TEST(VideoCodec, LiftedGroupsHoldTheirQualityTarget) {
-    const std::vector<Image> frames = clip(slow_pan(24));
-    const std::string path = temp_path("lifted_quality.twv");
-    for (TwiTransform transform : {TwiTransform::mesh, TwiTransform::grid53}) {
-        for (double quality : {30.0, 38.0}) {
-            const Coded coded =
-                encode(frames, path, {.transform = transform, .group = 8, .quality = quality});
-            double sum = 0;
-            int count = 0;
-            for (size_t t = 0; t < coded.frames.size(); ++t) {
-                sum += coded.frames[t].psnr;
-                ++count;
-                if (t + 1 == coded.frames.size() || coded.frames[t + 1].first_in_group) {
-                    SCOPED_TRACE(::testing::Message() << static_cast<int>(transform) << ", "
-                                                      << quality << " dB, group ending at " << t);
-                    EXPECT_EQ(coded.frames[t].quality_target, quality);
-                    EXPECT_NEAR(sum / count, quality, 0.5);
-                    sum = 0;
-                    count = 0;
-                }
-            }
-        }
-    }
-    fs::remove(path);
-}
-
-}  // namespace
-}  // namespace tesswave::video
-
-namespace tesswave::video {
-namespace {
-
-// A group is also coded on the fixed grid and kept there when that is better: a pan (the moving
-// mesh's case) followed by a still picture of pixel noise (the grid's), in one file that decodes
-// to the encoder's reconstruction. Without the grid candidate no group is on the grid and the
-// error is no lower.
-TEST(VideoCodec, EachGroupKeepsTheMeshOrTheFixedGridWhicheverIsBetter) {
-    const samples::SampleClipOptions o{
-        .width = 96, .height = 64, .frames = 8, .pan = {1.25, 0.5}, .object = true};
-    std::vector<Image> frames = clip(o);
-    Image noise = make_image(o.width, o.height, 3);
-    uint32_t state = 12345;
-    for (auto& plane : noise.planes) {
-        for (float& v : plane) {
-            state = state * 1664525u + 1013904223u;
-            v = static_cast<float>(state >> 8) / static_cast<float>(1 << 24);
-        }
-    }
-    for (int t = 0; t < 8; ++t) frames.push_back(noise);
-    const std::string path = temp_path("grid_groups.twv");
-    const auto squared_error = [&](const Coded& c) {
-        double sum = 0;
-        for (size_t t = 0; t < frames.size(); ++t) {
-            for (size_t p = 0; p < frames[t].planes.size(); ++p) {
-                for (size_t i = 0; i < frames[t].planes[p].size(); ++i) {
-                    const double d =
-                        double{frames[t].planes[p][i]} - c.reconstructions[t].planes[p][i];
-                    sum += d * d;
-                }
-            }
-        }
-        return sum;
-    };
-    for (double kbps : {150.0, 600.0}) {
-        SCOPED_TRACE(kbps);
-        const Coded with = encode(frames, path, {.group = 8, .kbps = kbps});
-        const std::vector<Image> decoded = decode_all(path);
-        ASSERT_EQ(decoded.size(), frames.size());
-        for (size_t t = 0; t < frames.size(); ++t)
-            expect_identical(decoded[t], with.reconstructions[t]);
-        const Coded without =
-            encode(frames, path, {.group = 8, .kbps = kbps, .grid_groups = false});
-        std::printf(
-            "%.0f kbit/s: groups on the grid %d %d; %.2f dB (%lld bytes) with the grid "
-            "candidate, %.2f dB (%lld bytes) without\n",
-            kbps, with.frames[0].grid_group ? 1 : 0, with.frames[8].grid_group ? 1 : 0,
-            mean_psnr(with), static_cast<long long>(with.bytes), mean_psnr(without),
-            static_cast<long long>(without.bytes));
-        EXPECT_FALSE(with.frames[0].grid_group);
-        EXPECT_TRUE(with.frames[8].grid_group);
-        for (const EncodedFrame& f : without.frames) EXPECT_FALSE(f.grid_group);
-        EXPECT_LT(squared_error(with), squared_error(without));
-        EXPECT_NEAR(static_cast<double>(with.bytes), static_cast<double>(without.bytes),
-                    0.01 * static_cast<double>(without.bytes));
-    }
     fs::remove(path);
 }
 
