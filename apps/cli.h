@@ -124,6 +124,20 @@ inline CLI::Option* add_sampling_option(CLI::App* cmd, std::string& value) {
         ->check(CLI::IsMember({"point", "fit"}));
 }
 
+// --mesh-wavelet 97|lifted, one meaning on every command that codes video on a mesh.
+inline CLI::Option* add_mesh_wavelet_option(CLI::App& cmd, std::string& value) {
+    return cmd
+        .add_option("--mesh-wavelet", value,
+                    "Transform of the mesh's samples: 97 (the CDF 9/7 on the lattice that the "
+                    "grid mesh's samples form) or lifted (the paper's lifted bilinear wavelet)")
+        ->capture_default_str()
+        ->check(CLI::IsMember({"97", "lifted"}));
+}
+
+inline MeshWavelet mesh_wavelet_from_name(std::string_view name) {
+    return name == "lifted" ? MeshWavelet::lifted : MeshWavelet::lattice97;
+}
+
 // --crf N and --preset P, one meaning wherever frames go to a FrameSink: how .mp4/.mov output
 // is coded.
 inline void add_h264_options(CLI::App* cmd, H264Settings& value) {

@@ -38,6 +38,7 @@ struct CompareVideoArgs {
     int group = 33;
     double fps = 0;
     std::string sampling = "fit";  // VideoEncodeOptions says why
+    std::string mesh_wavelet = "97";
     bool mesh_only = false, overwrite = false, json = false;
 };
 
@@ -248,7 +249,8 @@ void compare_at_rate(Session& s, const ClipInfo& clip, const Image& original, co
                 s.bar.update((s.done + f * clip.pixels()) / s.total, stage.substr(0, 30).c_str());
             },
             sampling_from_name(s.args.sampling),
-            s.args.mesh_only};
+            s.args.mesh_only,
+            mesh_wavelet_from_name(s.args.mesh_wavelet)};
         Image shown;
         VideoRow row = run_video_method(context, m, rate.bpp(clip), &shown);
         row.rate = rate.text;
@@ -354,6 +356,7 @@ void add_compare_video_command(CLI::App& app) {
                     "Raw .yuv input: yuv420p, yuv422p, yuv444p, gray");
     cmd->add_option("-o,--output", a->output, "Output folder")->required();
     add_sampling_option(cmd, a->sampling);
+    add_mesh_wavelet_option(*cmd, a->mesh_wavelet);
     cmd->add_flag("--mesh-only", a->mesh_only,
                   "The moving mesh codes every group on the mesh (by default a group is also "
                   "coded on the fixed-grid 9/7 and kept there when that is better)");

@@ -61,12 +61,14 @@ nlohmann::json twv_info(const std::string& path, int64_t max_pixels) {
         std::string d = str(transform_name(g.transform), ", ", g.levels, " levels");
         if (g.transform == TwiTransform::mesh) {
             d += str(", grid ", g.grid_cols, "x", g.grid_rows, ", ",
-                     g.motion == video::TwvMotion::tracked ? "tracked" : "static");
+                     g.motion == video::TwvMotion::tracked ? "tracked" : "static",
+                     g.mesh_wavelet == MeshWavelet::lattice97 ? ", 9/7 on the mesh lattice"
+                                                              : ", bilinear mesh wavelet");
             if (g.has_canvas()) {
                 d += str(", canvas ", h.width + g.extend_x, "x", h.height + g.extend_y);
             }
         }
-        d += g.lifted > 0 ? ", lifted" : ", low delay";
+        d += g.lifted > 0 ? ", lifted along time" : ", low delay";
         ++domains[d];
     }
     if (frames == 0) {

@@ -30,6 +30,7 @@ struct EncodeArgs {
     int64_t max_frames = 0;
     std::string sampling = "fit";  // VideoEncodeOptions says why
     std::string chroma = "auto";
+    std::string mesh_wavelet = "97";
     bool low_delay = false, mesh_only = false, overwrite = false, json = false;
 };
 
@@ -118,6 +119,7 @@ void run_encode(const EncodeArgs& a) {
         .motion_level = a.motion_level,
         .density = a.density,
         .levels = a.levels,
+        .mesh_wavelet = mesh_wavelet_from_name(a.mesh_wavelet),
         .group = a.group,
         .low_delay = a.low_delay,
         .chroma_420 = a.chroma == "420" || (a.chroma == "auto" && source.chroma_subsampled()),
@@ -422,6 +424,7 @@ void add_video_commands(CLI::App& app) {
         ->check(density_range());
     enc->add_option("-J,--levels", e->levels, "Mesh level J, or fixed-grid levels")
         ->check(CLI::Range(1, 12));
+    add_mesh_wavelet_option(*enc, e->mesh_wavelet);
     enc->add_option("-g,--group", e->group,
                     "Intra period: frames per group (default 33: 2^5 + 1, so that every frame but "
                     "the last lies between two others on every level of the temporal wavelet)")

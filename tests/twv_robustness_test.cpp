@@ -281,7 +281,7 @@ TEST(TwvRobustness, CraftedChunksWithValidCrcsAreRefused) {
 // A canvas (a panning group's T0 beyond the frame) is at most twice the frame a side, only in
 // lifted groups, its grid no finer than a pixel, and each frame's window lies on it.
 TEST(TwvRobustness, CanvasesAndWindowsOutsideTheirLimitsAreRefused) {
-    const TwvHeader header{.width = 32, .height = 24, .version = 3};
+    const TwvHeader header{.width = 32, .height = 24, .version = 4};
     TwvGroup g{.transform = TwiTransform::mesh,
                .levels = 2,
                .motion = TwvMotion::tracked,
@@ -335,6 +335,38 @@ TEST(TwvRobustness, CanvasesAndWindowsOutsideTheirLimitsAreRefused) {
 // Two groups that differ only in their canvas do not share a coding domain: a crafted second
 // group with the first one's grid and norms but a wider canvas decodes as it does alone (read
 // straight through, the decoder once kept the first group's narrower canvas for it).
+// Version 4: a mesh group names its wavelet (0 lifted, 1 the 9/7 on the lattice), whose band
+// count follows; other values, and the byte in an earlier version's group, are refused.
+TEST(TwvRobustness, TheMeshWaveletIsReadBackAndChecked) {
+    const TwvHeader header{.width = 32, .height = 24};
+    TwvGroup g{.transform = TwiTransform::mesh,
+               .levels = 2,
+               .motion = TwvMotion::tracked,
+               .grid_cols = 5,
+               .grid_rows = 3,
+               .mesh_wavelet = MeshWavelet::lattice97,
+               .channel_factors = {1, 1, 1},
+               .lifted = 4};
+    EXPECT_EQ(twv_band_count(g, header), 1 + 3 * 2);
+    g.band_norms.assign(twv_band_count(g, header), 1.0f);
+    Bytes bytes = write_twv_group(g);
+    EXPECT_EQ(read_twv_group(bytes, header, "g").mesh_wavelet, MeshWavelet::lattice97);
+    // The lifted wavelet's 1 + 2 J bands do not match the lattice's.
+    TwvGroup lifted = g;
+    lifted.mesh_wavelet = MeshWavelet::lifted;
+    EXPECT_THROW(read_twv_group(write_twv_group(lifted), header, "g"), Error);
+    lifted.band_norms.assign(twv_band_count(lifted, header), 1.0f);
+    EXPECT_EQ(read_twv_group(write_twv_group(lifted), header, "g").mesh_wavelet,
+              MeshWavelet::lifted);
+    // The wavelet byte follows the grid's columns and rows (two one-byte varints).
+    const size_t at = 1 + 1 + 1 + 1 + 2;
+    ASSERT_EQ(bytes[at], 1);
+    bytes[at] = 2;
+    EXPECT_THROW(read_twv_group(bytes, header, "g"), Error);
+    EXPECT_THROW(read_twv_group(write_twv_group(g), {.width = 32, .height = 24, .version = 3}, "g"),
+                 Error);
+}
+
 TEST(TwvRobustness, AGroupOnAnotherCanvasGetsItsOwnDomain) {
     // Two scenes of 8 frames, panning 0.5 and 1.5 pixels a frame: canvases 8 and 16 pixels wider.
     samples::SampleClipOptions a{.width = 176, .height = 144, .frames = 8, .pan = {0.5, 0}};

@@ -53,7 +53,6 @@ TEST(VideoCodec, LiftedIdenticalFramesCostAFewBytesEach) {
     const std::vector<Image> frames(8, samples::sample_clip_frame(o, 0));
     const std::string path = temp_path("lifted_still.twv");
     const Coded coded = encode(frames, path, {.quality = 36, .grid_groups = false});
-    EXPECT_GT(coded.frames[0].bytes, 1000);
     for (size_t i = 1; i < frames.size(); ++i) {
         EXPECT_EQ(coded.frames[i].kind, TwvFrameKind::band);
         EXPECT_LE(coded.frames[i].bytes, 24) << "frame " << i;

@@ -14,7 +14,8 @@ namespace {
 // Whether two groups code alike (motion and the lifted length aside): the domain can be kept.
 bool same_domain(const TwvGroup& a, const TwvGroup& b) {
     return a.transform == b.transform && a.levels == b.levels && a.grid_cols == b.grid_cols &&
-           a.grid_rows == b.grid_rows && a.extend_x == b.extend_x && a.extend_y == b.extend_y &&
+           a.grid_rows == b.grid_rows && a.mesh_wavelet == b.mesh_wavelet &&
+           a.extend_x == b.extend_x && a.extend_y == b.extend_y &&
            a.channel_factors == b.channel_factors && a.band_norms == b.band_norms;
 }
 

@@ -53,6 +53,7 @@ TwvGroup choose_group(const TwvHeader& h, const VideoEncodeOptions& o) {
     g.grid_rows = std::min(g.grid_rows, h.height);
     g.levels = J - k;
     g.motion = o.motion;
+    g.mesh_wavelet = o.mesh_wavelet;
     const std::string problem = twv_group_size_problem(g, h);
     if (!problem.empty()) throw Error(problem + "; lower --levels or --density");
     return g;

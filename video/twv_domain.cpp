@@ -32,7 +32,11 @@ std::shared_ptr<const CodingDomain> group_domain(const TwvHeader& header, const 
                       .levels = group.levels,
                       .mesh = std::move(rest),
                       .channel_factors = group.channel_factors,
-                      .canvas = group.has_canvas()};
+                      .canvas = group.has_canvas(),
+                      .mesh_wavelet = group.transform == TwiTransform::mesh ? group.mesh_wavelet
+                                                                            : MeshWavelet::lifted,
+                      .grid_cols = group.grid_cols,
+                      .grid_rows = group.grid_rows};
     const int probes = measure_norms ? 1 : 0;
     const std::span<const float> norms =
         measure_norms ? std::span<const float>() : std::span<const float>(group.band_norms);

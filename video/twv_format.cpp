@@ -12,7 +12,7 @@
 namespace tesswave::video {
 namespace {
 
-constexpr uint32_t kVersion = 3;
+constexpr uint32_t kVersion = 4;
 
 void write_u64(ByteWriter& w, uint64_t v) {
     for (int i = 0; i < 8; ++i) w.u8(static_cast<uint8_t>(v >> (8 * i)));
@@ -123,6 +123,11 @@ std::vector<uint8_t> twv_chunk(uint8_t tag, std::span<const uint8_t> payload) {
 }
 
 int twv_band_count(const TwvGroup& g, const TwvHeader& h) {
+    if (g.transform == TwiTransform::mesh && g.mesh_wavelet == MeshWavelet::lattice97) {
+        return static_cast<int>(
+            grid_bands((g.grid_cols << g.levels) + 1, (g.grid_rows << g.levels) + 1, g.levels)
+                .size());
+    }
     if (g.transform == TwiTransform::mesh) return 1 + 2 * g.levels;
     return static_cast<int>(grid_bands(h.width, h.height, g.levels).size());
 }
@@ -154,6 +159,7 @@ std::vector<uint8_t> write_twv_group(const TwvGroup& g) {
         w.u8(static_cast<uint8_t>(g.motion));
         w.varint(g.grid_cols);
         w.varint(g.grid_rows);
+        w.u8(static_cast<uint8_t>(g.mesh_wavelet));
     }
     for (float f : g.channel_factors) w.f32(f);
     w.varint(g.band_norms.size());
@@ -216,6 +222,8 @@ TwvGroup read_twv_group(std::span<const uint8_t> payload, const TwvHeader& h,
         // A canvas is at most twice the frame a side (its grid too).
         g.grid_cols = static_cast<int>(r.count("grid columns", 1, int64_t{2} * h.width));
         g.grid_rows = static_cast<int>(r.count("grid rows", 1, int64_t{2} * h.height));
+        if (h.version >= 4)
+            g.mesh_wavelet = static_cast<MeshWavelet>(r.count("mesh wavelet", 0, 1));
         const std::string problem = twv_group_size_problem(g, h, limits);
         if (!problem.empty()) r.fail(problem);
     } else {

@@ -7,11 +7,13 @@
 //   chunk: tag u8 | payload size varint | payload | CRC-32 u32 of tag, size and payload
 //   'G' group: first frame varint | transform u8 (0 mesh, 1 grid 5/3, 2 grid 9/7) | levels u8 |
 //     mesh path: motion u8 (0 static, 1 tracked) | grid columns, rows varint (the T0 mesh is
-//     the grid on [0,W]x[0,H]) | per channel: step factor f32 | band count varint | per band:
-//     norm f32 | version 2: lifted frames varint (0: a low-delay group of an intra frame and
-//     closed-loop deltas; n > 0: n frames lifted along the mesh, temporal.h) | version 3, tracked
-//     mesh path: canvas extension x, y varint (pixels, at most W and H; nonzero only in a lifted
-//     group: T0 is the grid on the canvas [0,W+x]x[0,H+y] and each frame a window of it)
+//     the grid on [0,W]x[0,H]) | version 4: mesh wavelet u8 (0 the lifted bilinear, 1 the 9/7
+//     on the lattice of T_J's samples; coding_domain.h) | per channel: step factor f32 | band count
+//     varint | per band: norm f32 | version 2: lifted frames varint (0: a low-delay group of an
+//     intra frame and closed-loop deltas; n > 0: n frames lifted along the mesh, temporal.h) |
+//     version 3, tracked mesh path: canvas extension x, y varint (pixels, at most W and H; nonzero
+//     only in a lifted group: T0 is the grid on the canvas [0,W+x]x[0,H+y] and each frame a window
+//     of it)
 //   'F' frame: frame number varint | kind u8 (0 intra, 1 delta, 2 temporal band: slot t of a
 //     lifted group, which carries frame t's motion) | base step f32 | a group with a canvas:
 //     the frame's window on it, left and top varint (1/4 pixels, within the canvas) | tracked mesh
@@ -28,7 +30,8 @@
 //
 // A file cut anywhere decodes up to its last whole frame chunk (readers scan when the trailer is
 // missing); in a lifted group, the frames whose chunks arrived, the missing bands taken as zero.
-// Version 1 files (no lifted groups) and version 2 files (no canvas) are read as before.
+// Version 1 files (no lifted groups), version 2 files (no canvas) and version 3 files (the lifted
+// mesh wavelet only) are read as before.
 #pragma once
 
 #include <cstdint>
@@ -49,7 +52,7 @@ struct TwvHeader {
     int width = 0, height = 0;
     int fps_num = 25, fps_den = 1;
     int channels = 3, bit_depth = 8;
-    int version = 3;  // as read; written files are version 3
+    int version = 4;  // as read; written files are version 4
     double fps() const { return static_cast<double>(fps_num) / fps_den; }
 };
 
@@ -59,8 +62,10 @@ struct TwvGroup {
     int64_t first_frame = 0;
     TwiTransform transform = TwiTransform::mesh;
     int levels = 0;
-    TwvMotion motion = TwvMotion::none;       // mesh path
-    int grid_cols = 0, grid_rows = 0;         // mesh path: T0 is grid_mesh(W, H, cols, rows)
+    TwvMotion motion = TwvMotion::none;  // mesh path
+    int grid_cols = 0, grid_rows = 0;    // mesh path: T0 is grid_mesh(W, H, cols, rows)
+    // Mesh path, version 4: the transform of the mesh's samples (lifted in earlier versions).
+    MeshWavelet mesh_wavelet = MeshWavelet::lifted;
     std::vector<float> channel_factors = {};  // per channel
     std::vector<float> band_norms = {};       // per band of the coding layout
     int lifted = 0;  // frames of a temporally lifted group; 0: low delay (intra, then deltas)

@@ -7,6 +7,7 @@
 
 #include "core/math/colour.h"
 #include "core/math/error.h"
+#include "core/math/grid_mesh.h"
 #include "core/math/lifting.h"
 #include "core/math/sampling.h"
 #include "core/math/strings.h"
@@ -47,7 +48,25 @@ CodingDomain::CodingDomain(DomainShape shape, int probes, std::span<const float>
         layout_ = grid_layout(s.width, s.height, s.levels, wavelet_of(s.transform), probes > 0);
     } else {
         hierarchy_ = build_hierarchy(s.mesh, {.levels = s.levels, .finest_topology = false});
-        layout_ = mesh_layout(*hierarchy_, s.mesh.width * s.mesh.height, probes);
+        if (s.mesh_wavelet == MeshWavelet::lattice97) {
+            if (s.grid_cols < 1 || s.grid_rows < 1 ||
+                s.mesh.face_corners !=
+                    grid_mesh(s.mesh.width, s.mesh.height, s.grid_cols, s.grid_rows).face_corners) {
+                throw Error("the lattice 9/7 needs a grid mesh");
+            }
+            lattice_ = grid_lattice_index(*hierarchy_, s.grid_cols, s.grid_rows);
+            lattice_width_ = (s.grid_cols << s.levels) + 1;
+            lattice_height_ = (s.grid_rows << s.levels) + 1;
+            layout_ = grid_layout(lattice_width_, lattice_height_, s.levels, GridWavelet::cdf97,
+                                  probes > 0);
+            // Norms in pixel units, as mesh_layout's: a sample stands for area / |V_J| pixels.
+            const double scale = std::sqrt(s.mesh.width * s.mesh.height / lattice_.size());
+            if (probes > 0) {
+                for (CodingBand& b : layout_.bands) b.norm *= scale;
+            }
+        } else {
+            layout_ = mesh_layout(*hierarchy_, s.mesh.width * s.mesh.height, probes);
+        }
         if (s.canvas && s.placement != MeshPlacement::area) {
             throw Error("a canvas mesh is placed by area");
         }
@@ -240,9 +259,29 @@ void CodingDomain::to_image(const Planes& samples, std::span<const Vec2> vertice
     }
 }
 
+// The 9/7 on the lattice: each plane's samples put in lattice order and transformed there (the
+// coefficients stay in the lattice's Mallat layout), or back.
+void CodingDomain::lattice_transform(Planes& x, bool forward) const {
+    const GridTransformOptions options{.wavelet = GridWavelet::cdf97, .levels = shape_.levels};
+    std::vector<float> lattice(lattice_.size());
+    for (auto& plane : x) {
+        if (forward) {
+            for (size_t i = 0; i < lattice_.size(); ++i) lattice[lattice_[i]] = plane[i];
+            grid_forward(lattice, lattice_width_, lattice_height_, options);
+            plane.swap(lattice);
+        } else {
+            grid_inverse(plane, lattice_width_, lattice_height_, options);
+            for (size_t i = 0; i < lattice_.size(); ++i) lattice[i] = plane[lattice_[i]];
+            plane.swap(lattice);
+        }
+    }
+}
+
 void CodingDomain::transform(Planes& x) const {
     if (shape_.colour == TwiColour::ycbcr) ycbcr_forward(x[0], x[1], x[2]);
-    if (hierarchy_) {
+    if (!lattice_.empty()) {
+        lattice_transform(x, true);
+    } else if (hierarchy_) {
         forward_transform(*hierarchy_, spans(x));
     } else {
         for (auto& plane : x) grid_forward(plane, shape_.width, shape_.height, grid_options());
@@ -284,13 +323,19 @@ Planes CodingDomain::analyze(const Image& image, Sampling sampling,
     return x;
 }
 
-void CodingDomain::synthesize(Planes x, std::span<const Vec2> vertices, Image& out) const {
-    if (hierarchy_) {
+void CodingDomain::inverse(Planes& x) const {
+    if (!lattice_.empty()) {
+        lattice_transform(x, false);
+    } else if (hierarchy_) {
         inverse_transform(*hierarchy_, spans(x));
     } else {
         for (auto& plane : x) grid_inverse(plane, shape_.width, shape_.height, grid_options());
     }
     if (shape_.colour == TwiColour::ycbcr) ycbcr_inverse(x[0], x[1], x[2]);
+}
+
+void CodingDomain::synthesize(Planes x, std::span<const Vec2> vertices, Image& out) const {
+    inverse(x);
     to_image(x, vertices, out);
 }
 
@@ -301,6 +346,7 @@ Image CodingDomain::synthesize(Planes coefficients) const {
 }
 
 IntPlanes CodingDomain::samples_int(const Image& image) const {
+    if (!lattice_.empty()) throw Error("lossless coding takes the lifted mesh wavelet");
     Planes s;
     sample_into(image, {}, s);
     const float top = max_value(shape_.format);
@@ -326,6 +372,7 @@ IntPlanes CodingDomain::analyze_int(const Image& image) const {
 }
 
 IntPlanes CodingDomain::inverse_int(IntPlanes x) const {
+    if (!lattice_.empty()) throw Error("lossless coding takes the lifted mesh wavelet");
     // The integer inverse grows values by less than 16x a level (at most 6.25x for the grid 5/3,
     // 10.75x for the mesh), so int32 is safe while largest * 16^levels < 2^30. Coefficients from
     // a damaged stream can exceed that: they take the int64 inverse, or are refused past 2^62.

@@ -1,7 +1,8 @@
 // The coding domain of the still (.twi) and video (.twv) codecs: from an image to the coefficients
 // the bit-plane coder codes, and back. Mesh path: sample the image on T_J at given T0 vertex
 // positions (or read the pixels directly when the vertices sit on pixel centres), colour
-// transform, lifting; fixed-grid path: colour transform and the 5/3 or 9/7 on the pixels.
+// transform, lifting (or the 9/7 on the lattice of a grid mesh's samples); fixed-grid path: colour
+// transform and the 5/3 or 9/7 on the pixels.
 //
 // The topology (hierarchy and coding layout) is built once; positions are per call, so a video
 // group codes every frame of a moving mesh with one domain. The quantizer step of band b in
@@ -54,6 +55,10 @@ struct DomainShape {
     // take are in the image's pixel coordinates, the window's offset taken off, and reach past
     // the image; there is no rest plan, so positions must be given.
     bool canvas = false;
+    // Mesh path: the transform of the samples. lattice97 needs a grid: T0 has grid_mesh's faces
+    // for grid_cols x grid_rows cells (its vertices may sit anywhere).
+    MeshWavelet mesh_wavelet = MeshWavelet::lifted;
+    int grid_cols = 0, grid_rows = 0;
 
     bool operator==(const DomainShape&) const = default;
 };
@@ -116,6 +121,8 @@ class CodingDomain {
     bool at_rest(std::span<const Vec2> vertices) const;  // the rest positions, as rest_plan_'s
     bool rest_plan_is_pixels() const;
     void transform(Planes& samples) const;  // colour transform and analysis
+    void inverse(Planes& x) const;          // synthesis and inverse colour transform
+    void lattice_transform(Planes& x, bool forward) const;
     void sample_into(const Image& image, std::span<const Vec2> vertices, Planes& out,
                      Sampling sampling = Sampling::point,
                      const ProjectOptions& projection = {}) const;
@@ -127,6 +134,9 @@ class CodingDomain {
     std::vector<int32_t> pixel_of_sample_;  // centres placement: the pixel each sample reads
     std::vector<int32_t> written_samples_;  // the samples that are pixels (one per pixel)
     std::optional<RenderPlan> rest_plan_;   // area placement: rendering at rest
+    // Lattice 9/7: each T_J sample's place in the lattice, and the lattice's size.
+    std::vector<int32_t> lattice_;
+    int lattice_width_ = 0, lattice_height_ = 0;
     CodingLayout layout_;
 };
 

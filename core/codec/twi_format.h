@@ -24,6 +24,11 @@
 namespace tesswave {
 
 enum class TwiTransform : uint8_t { mesh = 0, grid53 = 1, grid97 = 2 };
+// The wavelet of the mesh path: the paper's lifted bilinear wavelet (any mesh), or the CDF 9/7
+// (fixed_grid.h) on the lattice of T_J's samples, for a grid T0 (grid_lattice_index): the mesh
+// still moves and samples the image; only the transform of its samples changes. Video groups only
+// (.twv version 4).
+enum class MeshWavelet : uint8_t { lifted = 0, lattice97 = 1 };
 enum class TwiColour : uint8_t { none = 0, ycbcr = 1, ycocg_r = 2 };
 enum class MeshPlacement : uint8_t { area = 0, centres = 1 };
 

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "core/codec/twi_format.h"
 #include "core/io/frame_source.h"
 #include "core/math/image.h"
 #include "core/math/progress.h"
@@ -53,6 +54,7 @@ struct RunContext {
     // The moving mesh codes every group on the mesh (else a group is also coded on the fixed-grid
     // 9/7 and kept there when better; the static mesh method always keeps the mesh).
     bool mesh_only = false;
+    MeshWavelet mesh_wavelet = MeshWavelet::lattice97;  // the transform of our meshes' samples
 };
 
 struct VideoRow {

@@ -80,6 +80,7 @@ int64_t encode_ours(const RunContext& c, VideoMethod method, double target_bpp,
                                 .motion = method == VideoMethod::moving_mesh
                                               ? video::TwvMotion::tracked
                                               : video::TwvMotion::none,
+                                .mesh_wavelet = c.mesh_wavelet,
                                 .group = c.group,
                                 .chroma_420 = clip.chroma_420,
                                 .kbps = kbps_for(clip, target_bpp),

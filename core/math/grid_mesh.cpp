@@ -1,6 +1,7 @@
 #include "core/math/grid_mesh.h"
 
 #include <cmath>
+#include <cstdint>
 
 #include "core/math/error.h"
 #include "core/math/strings.h"
@@ -32,6 +33,32 @@ Mesh grid_mesh(double width, double height, int cols, int rows) {
         }
     }
     return mesh;
+}
+
+std::vector<int32_t> grid_lattice_index(const Hierarchy& hierarchy, int cols, int rows) {
+    const int J = hierarchy.finest();
+    const int64_t width = (int64_t{cols} << J) + 1, height = (int64_t{rows} << J) + 1;
+    const int32_t n = hierarchy.num_samples(J);
+    if (J > 20 || width * height != n || hierarchy.num_samples(0) != (cols + 1) * (rows + 1)) {
+        throw Error(str("the mesh is not a ", cols, "x", rows, " grid"));
+    }
+    // Refined from the grid of unit cells scaled by 2^J, every T_J sample sits on an integer
+    // point: edge and face points are means of 2 and 4 positions, exact in binary.
+    const double unit = std::ldexp(1.0, J);
+    const Mesh grid = grid_mesh(cols * unit, rows * unit, cols, rows);
+    const std::vector<Vec2> p = refine_positions(hierarchy, grid.vertices, J);
+    std::vector<int32_t> index(p.size());
+    std::vector<bool> taken(p.size(), false);
+    for (size_t i = 0; i < p.size(); ++i) {
+        const double x = std::round(p[i].x), y = std::round(p[i].y);
+        const int64_t k = static_cast<int64_t>(y) * width + static_cast<int64_t>(x);
+        if (x != p[i].x || y != p[i].y || x < 0 || y < 0 || x >= width || y >= height || taken[k]) {
+            throw Error(str("the mesh is not a ", cols, "x", rows, " grid"));
+        }
+        taken[k] = true;
+        index[i] = static_cast<int32_t>(k);
+    }
+    return index;
 }
 
 }  // namespace tesswave
