@@ -250,7 +250,9 @@ void VideoDecoder::load_lifted_group() {
         ++next_frame_;
     }
     next_frame_ = saved_next;
-    if (!bands.empty()) g.coefficients = decode_lifted_group(*domain_, bands, group_.lifted);
+    if (!bands.empty())
+        g.coefficients =
+            decode_lifted_group(*domain_, bands, group_.lifted, temporal_tree(header_));
     lifted_ = std::move(g);
 }
 

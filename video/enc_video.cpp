@@ -173,17 +173,37 @@ Planes VideoEncoder::requantized(const CodingDomain& domain, const Planes& x,
 }
 
 // The base step at which `psnr_at` (a falling function of the step) reaches the target PSNR:
-// bisection on log2 of the step. A target above what the finest step reaches (the mesh's
-// resampling caps the quality) is lowered to 0.25 dB below that ceiling, so that the rate stays
-// finite; the result says which target was used.
+// false position on log2 of the step (Illinois: a side that stays put has its value halved), as
+// the PSNR falls nearly linearly in it (about 6 dB a doubling), until the PSNR is within
+// 0.02 dB above the target or the bracket is 0.01 wide: 4 to 6 evaluations where bisection took
+// 12. A target above what the finest step reaches (the mesh's resampling caps the quality) is
+// lowered to 0.25 dB below that ceiling, so that the rate stays finite; the result says which
+// target was used.
 VideoEncoder::QualityStep VideoEncoder::step_for_quality(
     const std::function<double(float)>& psnr_at) const {
-    double lo = -14, hi = 0;  // log2 of the step
+    double lo = -14, hi = 0;  // log2 of the step: the PSNR meets the target at lo, not at hi
     const double ceiling = psnr_at(static_cast<float>(std::exp2(lo)));
     const double target = std::min(options_.quality, ceiling - 0.25);
-    for (int i = 0; i < 11; ++i) {
-        const double mid = 0.5 * (lo + hi);
-        (psnr_at(static_cast<float>(std::exp2(mid))) >= target ? lo : hi) = mid;
+    double f_lo = ceiling - target, f_hi = psnr_at(1.0f) - target;
+    if (f_hi >= 0) return {1.0f, target};
+    int kept = 0;  // +1: lo moved last, -1: hi moved last
+    for (int i = 0; i < 16 && hi - lo > 0.01 && f_lo >= 0.02; ++i) {
+        // The interpolated crossing, kept off the ends so that the bracket always shrinks.
+        const double w = hi - lo;
+        const double mid = std::clamp(hi - f_hi * w / (f_hi - f_lo), lo + 0.001 * w + 0.001,
+                                      hi - 0.001 * w - 0.001);
+        const double f = psnr_at(static_cast<float>(std::exp2(mid))) - target;
+        if (f >= 0) {
+            lo = mid;
+            f_lo = f;
+            if (kept == 1) f_hi *= 0.5;
+            kept = 1;
+        } else {
+            hi = mid;
+            f_hi = f;
+            if (kept == -1) f_lo *= 0.5;
+            kept = -1;
+        }
     }
     return {static_cast<float>(std::exp2(lo)), target};
 }

@@ -70,8 +70,12 @@ void add_decoded_residual(const CodingDomain& domain, const TwvFrame& frame, Pla
     }
 }
 
+TemporalTree temporal_tree(const TwvHeader& header) {
+    return header.version >= 4 ? TemporalTree::bisection : TemporalTree::dyadic;
+}
+
 std::vector<Planes> decode_lifted_group(const CodingDomain& domain, std::span<const TwvFrame> bands,
-                                        int frames) {
+                                        int frames, TemporalTree tree) {
     if (frames < 1 || bands.size() > static_cast<size_t>(frames)) {
         throw Error("lifted group: more bands than frames");
     }
@@ -99,7 +103,7 @@ std::vector<Planes> decode_lifted_group(const CodingDomain& domain, std::span<co
             for (size_t t : share[k]) add_decoded_residual(domain, bands[t], x[t]);
         }
     });
-    temporal_inverse(x, temporal_levels(frames));
+    temporal_inverse(x, temporal_levels(frames, tree), tree);
     return x;
 }
 

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "core/codec/coding_domain.h"
+#include "temporal.h"
 #include "twv_format.h"
 
 namespace tesswave::video {
@@ -41,7 +42,10 @@ Vec2 window_offset(int32_t left, int32_t top);
 std::vector<Vec2> window_vertices(std::span<const Vec2> canvas, const TwvFrame& frame);
 
 std::vector<Planes> decode_lifted_group(const CodingDomain& domain, std::span<const TwvFrame> bands,
-                                        int frames);
+                                        int frames, TemporalTree tree);
+
+// The temporal tree of a file's lifted groups: dyadic before version 4, bisection from it.
+TemporalTree temporal_tree(const TwvHeader& header);
 
 // Renders images.size() frames of a lifted group, the coefficients (moved from, as synthesize
 // takes them) and vertices of frame k at coefficients[k] and vertices[k] into images[k]: a frame

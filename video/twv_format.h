@@ -10,7 +10,8 @@
 //     the grid on [0,W]x[0,H]) | version 4: mesh wavelet u8 (0 the lifted bilinear, 1 the 9/7
 //     on the lattice of T_J's samples; coding_domain.h) | per channel: step factor f32 | band count
 //     varint | per band: norm f32 | version 2: lifted frames varint (0: a low-delay group of an
-//     intra frame and closed-loop deltas; n > 0: n frames lifted along the mesh, temporal.h) |
+//     intra frame and closed-loop deltas; n > 0: n frames lifted along the mesh, temporal.h: on the
+//     dyadic tree before version 4, on the bisection tree from it) |
 //     version 3, tracked mesh path: canvas extension x, y varint (pixels, at most W and H; nonzero
 //     only in a lifted group: T0 is the grid on the canvas [0,W+x]x[0,H+y] and each frame a window
 //     of it)
