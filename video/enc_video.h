@@ -6,8 +6,8 @@
 // buffered, transformed along time with the 5/3, and every temporal band is coded as an embedded
 // bit-plane stream. --kbps gives the group its share of the rate and cuts all its streams at one
 // rate-distortion slope (allocation.h), so the rate lands on the target; --psnr quantizes every
-// band with the step at which the group's mean PSNR reaches the target (measured on every
-// fourth frame), and keeps every bit-plane. A tracked group is also coded on the static mesh, a
+// band with the step at which the group's mean PSNR (over all its frames) reaches the target, and
+// keeps every bit-plane. A tracked group is also coded on the static mesh, a
 // mesh group (grid_groups) on the fixed-grid 9/7 as well, and the best of the codings is kept;
 // a tracked group whose camera pans is coded on a canvas and on the frame (enc_canvas.cpp).
 // Frames come out of encode() when their group is coded (a group's length of latency).
@@ -68,10 +68,12 @@ struct VideoEncodeOptions {
     double kbps = 0;  // rate target; > 0 overrides `quality`
     // Target PSNR in dB, when kbps is 0: of each group's frames on average (lifted), or of each
     // group's intra frame (low delay). The default is near the rates x264's default (CRF 23)
-    // gives the shared clips, first 64 frames: carphone 0.121 bpp against x264's 0.119, chaplin
-    // 0.058 against 0.084, aerial 0.55 against 0.31, Big Buck Bunny at 640x360 0.0097 against
-    // 0.066 (density 1.5 and the grid candidate; at density 2 without it 0.126 / 0.064 / 0.57 /
-    // 0.010, and 30 dB gave 0.073 / 0.033 / 0.20 / 0.008, 34 dB 0.159 / 0.079 / 0.75 / 0.013).
+    // gives the shared clips, first 64 frames: carphone 0.099 bpp against x264's 0.119, chaplin
+    // 0.057 against 0.084, aerial 0.39 against 0.31, Big Buck Bunny at 640x360 0.0066 against
+    // 0.066 (the 9/7 on the mesh's lattice, the bisection tree; with the lifted wavelet and the
+    // dyadic tree 0.121 / 0.058 / 0.55 / 0.0097; at density 2 without the grid candidate 0.126 /
+    // 0.064 / 0.57 / 0.010, and 30 dB gave 0.073 / 0.033 / 0.20 / 0.008, 34 dB 0.159 / 0.079 /
+    // 0.75 / 0.013).
     double quality = 33;
     double intra_weight = 4;  // low delay with a rate: an intra frame's share of a delta's
     // Mesh path, lifted groups: each group is also coded on the fixed-grid 9/7 and kept there
