@@ -426,8 +426,7 @@ void add_video_commands(CLI::App& app) {
         ->check(CLI::Range(1, 12));
     add_mesh_wavelet_option(*enc, e->mesh_wavelet);
     enc->add_option("-g,--group", e->group,
-                    "Intra period: frames per group (default 33: 2^5 + 1, so that every frame but "
-                    "the last lies between two others on every level of the temporal wavelet)")
+                    "Intra period: at most this many frames a group (default 33)")
         ->check(CLI::Range(1, 100000));
     enc->add_flag("--mesh-only", e->mesh_only,
                   "Code every group on the mesh (by default a group is also coded on the "

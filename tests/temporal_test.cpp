@@ -72,6 +72,10 @@ TEST(Temporal, BisectionIsDyadicAtPowersOfTwoPlusOne) {
         temporal_forward(dyadic, temporal_levels(n, TemporalTree::dyadic), TemporalTree::dyadic);
         temporal_forward(bisection, temporal_levels(n, TemporalTree::bisection));
         EXPECT_EQ(dyadic, bisection);
+        // and the inverse, which the decoder of a version 3 file runs
+        temporal_inverse(dyadic, temporal_levels(n, TemporalTree::dyadic), TemporalTree::dyadic);
+        temporal_inverse(bisection, temporal_levels(n, TemporalTree::bisection));
+        EXPECT_EQ(dyadic, bisection);
     }
     std::vector<Planes> dyadic = random_group(16, 7), bisection = dyadic;
     temporal_forward(dyadic, temporal_levels(16, TemporalTree::dyadic), TemporalTree::dyadic);

@@ -184,18 +184,20 @@ VideoEncoder::QualityStep VideoEncoder::step_for_quality(
     double lo = -14, hi = 0;  // log2 of the step: the PSNR meets the target at lo, not at hi
     const double ceiling = psnr_at(static_cast<float>(std::exp2(lo)));
     const double target = std::min(options_.quality, ceiling - 0.25);
-    double f_lo = ceiling - target, f_hi = psnr_at(1.0f) - target;
+    // f_lo and f_hi weigh the next guess (Illinois halves them); above is what lo measured.
+    double above = ceiling - target, f_lo = above, f_hi = psnr_at(1.0f) - target;
     if (f_hi >= 0) return {1.0f, target};
     int kept = 0;  // +1: lo moved last, -1: hi moved last
-    for (int i = 0; i < 16 && hi - lo > 0.01 && f_lo >= 0.02; ++i) {
+    for (int i = 0; i < 16 && hi - lo > 0.01 && above >= 0.02; ++i) {
         // The interpolated crossing, kept off the ends so that the bracket always shrinks.
         const double w = hi - lo;
         const double mid = std::clamp(hi - f_hi * w / (f_hi - f_lo), lo + 0.001 * w + 0.001,
                                       hi - 0.001 * w - 0.001);
         const double f = psnr_at(static_cast<float>(std::exp2(mid))) - target;
+        if (!std::isfinite(f)) break;  // lo still meets the target
         if (f >= 0) {
             lo = mid;
-            f_lo = f;
+            f_lo = above = f;
             if (kept == 1) f_hi *= 0.5;
             kept = 1;
         } else {

@@ -54,12 +54,12 @@ struct VideoEncodeOptions {
     // (64 at 640x360) -10.3 % to -18.6 %; 0.15 to 0.87 dB at every rate of the three. The 5/3 on
     // the lattice gave aerial +5.7 %: the 9/7's longer filters make most of the gain.
     MeshWavelet mesh_wavelet = MeshWavelet::lattice97;
-    // Intra period: at most this many frames a group. 33 = 2^5 + 1: lifted along time, every
-    // frame but the last then lies between two frames on every level of the temporal 5/3 (with
-    // 32, the second half of a group is predicted from one side only, and the last frames dip by
-    // 2 to 4 dB). Measured against 32 on 64 frames at 100 / 400 kbit/s: carphone +0.15 / +0.09
-    // dB, chaplin +0.22 / +0.17; Big Buck Bunny and aerial unchanged (their cuts end groups
-    // earlier).
+    // Intra period: at most this many frames a group. 33 = 2^5 + 1 was chosen on the dyadic tree
+    // (.twv version 3), where with 32 the second half of a group was predicted from one side
+    // only and its last frames dipped by 2 to 4 dB (measured against 32 on 64 frames at 100 / 400
+    // kbit/s: carphone +0.15 / +0.09 dB, chaplin +0.22 / +0.17). On the bisection tree every
+    // length has every frame but the last between two others; 33 stays the intra period, the
+    // one compare-video gives every method.
     int group = 33;
     bool low_delay = false;  // closed-loop deltas, one frame of latency, instead of lifting
     // Code chroma one level coarser (the finest detail bands of Cb and Cr are left out, so the

@@ -124,9 +124,8 @@ std::vector<uint8_t> twv_chunk(uint8_t tag, std::span<const uint8_t> payload) {
 
 int twv_band_count(const TwvGroup& g, const TwvHeader& h) {
     if (g.transform == TwiTransform::mesh && g.mesh_wavelet == MeshWavelet::lattice97) {
-        return static_cast<int>(
-            grid_bands((g.grid_cols << g.levels) + 1, (g.grid_rows << g.levels) + 1, g.levels)
-                .size());
+        // Every level of the lattice keeps both sides at 2 or more (cells 2^l + 1).
+        return 1 + 3 * g.levels;
     }
     if (g.transform == TwiTransform::mesh) return 1 + 2 * g.levels;
     return static_cast<int>(grid_bands(h.width, h.height, g.levels).size());

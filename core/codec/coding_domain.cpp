@@ -55,8 +55,8 @@ CodingDomain::CodingDomain(DomainShape shape, int probes, std::span<const float>
                 throw Error("the lattice 9/7 needs a grid mesh");
             }
             lattice_ = grid_lattice_index(*hierarchy_, s.grid_cols, s.grid_rows);
-            lattice_width_ = (s.grid_cols << s.levels) + 1;
-            lattice_height_ = (s.grid_rows << s.levels) + 1;
+            lattice_width_ = static_cast<int>(grid_lattice_side(s.grid_cols, s.levels));
+            lattice_height_ = static_cast<int>(grid_lattice_side(s.grid_rows, s.levels));
             layout_ = grid_layout(lattice_width_, lattice_height_, s.levels, GridWavelet::cdf97,
                                   probes > 0);
             // Norms in pixel units, as mesh_layout's: a sample stands for area / |V_J| pixels.

@@ -37,7 +37,7 @@ Mesh grid_mesh(double width, double height, int cols, int rows) {
 
 std::vector<int32_t> grid_lattice_index(const Hierarchy& hierarchy, int cols, int rows) {
     const int J = hierarchy.finest();
-    const int64_t width = (int64_t{cols} << J) + 1, height = (int64_t{rows} << J) + 1;
+    const int64_t width = grid_lattice_side(cols, J), height = grid_lattice_side(rows, J);
     const int32_t n = hierarchy.num_samples(J);
     if (J > 20 || width * height != n || hierarchy.num_samples(0) != (cols + 1) * (rows + 1)) {
         throw Error(str("the mesh is not a ", cols, "x", rows, " grid"));

@@ -18,6 +18,8 @@ Mesh grid_mesh(double width, double height, int cols, int rows);
 // (wherever the vertices were moved: the lattice is in the mesh's parameter domain). For a
 // hierarchy built from a mesh with grid_mesh's faces, the row-major lattice index of each T_J
 // sample. Throws Error when the hierarchy is not of such a grid.
+// The lattice's columns or rows: cells 2^J + 1.
+inline int64_t grid_lattice_side(int cells, int levels) { return (int64_t{cells} << levels) + 1; }
 std::vector<int32_t> grid_lattice_index(const Hierarchy& hierarchy, int cols, int rows);
 
 }  // namespace tesswave
