@@ -124,12 +124,12 @@ inline CLI::Option* add_sampling_option(CLI::App* cmd, std::string& value) {
         ->check(CLI::IsMember({"point", "fit"}));
 }
 
-// --mesh-wavelet 97|lifted, one meaning on every command that codes video on a mesh.
+// --mesh-wavelet 97|lifted, one meaning on every command that codes on a grid mesh (lossy).
 inline CLI::Option* add_mesh_wavelet_option(CLI::App& cmd, std::string& value) {
     return cmd
         .add_option("--mesh-wavelet", value,
-                    "Transform of the mesh's samples: 97 (the CDF 9/7 on the lattice that the "
-                    "grid mesh's samples form) or lifted (the paper's lifted bilinear wavelet)")
+                    "Transform of a grid mesh's samples (lossy): 97 (the CDF 9/7 on the lattice "
+                    "they form) or lifted (the paper's lifted bilinear wavelet)")
         ->capture_default_str()
         ->check(CLI::IsMember({"97", "lifted"}));
 }

@@ -21,7 +21,7 @@ TwiTransform parse_grid(const std::string& grid) {
 }
 
 struct CompressArgs {
-    std::string input, output, mesh, grid, sampling = "fit";
+    std::string input, output, mesh, grid, sampling = "fit", mesh_wavelet = "97";
     double bpp = 0, psnr = 0, density = 1.0;
     bool lossless = false, aligned = false, fit_mesh = false, overwrite = false, json = false;
     int levels = 0;
@@ -69,6 +69,7 @@ void run_compress(CompressArgs a) {
     o.levels = a.levels;
     o.density = a.density;
     o.sampling = sampling_from_name(a.sampling);
+    o.mesh_wavelet = mesh_wavelet_from_name(a.mesh_wavelet);
     ProgressBar bar;
     o.progress = [&bar](double done, const char* stage) { bar.update(done, stage); };
     StillResult r;
@@ -189,6 +190,7 @@ void add_codec_commands(CLI::App& app) {
         ->capture_default_str()
         ->check(density_range());
     add_sampling_option(cmd, c->sampling);
+    add_mesh_wavelet_option(*cmd, c->mesh_wavelet);
     cmd->add_flag("-y,--overwrite", c->overwrite, "Overwrite the output");
     cmd->add_flag("--json", c->json, "Print the result as JSON");
     cmd->callback([c] { run_compress(*c); });

@@ -38,6 +38,8 @@ nlohmann::json twi_info(const std::string& path, int64_t max_pixels) {
                         ? str("grid ", h.grid_cols, "x", h.grid_rows)
                         : str(h.mesh.num_vertices(), " vertices, ", h.mesh.num_faces(), " faces");
         j["placement"] = h.placement == MeshPlacement::centres ? "pixel centres" : "area";
+        j["mesh_wavelet"] =
+            h.mesh_wavelet == MeshWavelet::lattice97 ? "9/7 on the mesh lattice" : "lifted";
     }
     return j;
 }

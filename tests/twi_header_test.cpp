@@ -243,6 +243,38 @@ TEST(TwiRobustness, headers_with_bad_fields_are_refused) {
     expect_refused(with_crc(flags), "flags");
 }
 
+// Version 3: a grid mesh names its wavelet; the lattice's 9/7 only for lossy grids by area, and
+// its band count is 1 + 3 J.
+TEST(TwiRobustness, the_mesh_wavelet_is_read_back_and_checked) {
+    const TwiHeader lattice = file_of("grid mesh, lossy").result.header;
+    ASSERT_EQ(lattice.mesh_wavelet, MeshWavelet::lattice97);
+    EXPECT_EQ(static_cast<int>(lattice.band_norms.size()), 1 + 3 * lattice.levels);
+    const TwiHeader lifted = file_of("grid mesh, lifted wavelet, lossy").result.header;
+    ASSERT_EQ(lifted.mesh_wavelet, MeshWavelet::lifted);
+    EXPECT_EQ(static_cast<int>(lifted.band_norms.size()), 1 + 2 * lifted.levels);
+    EXPECT_EQ(file_of("grid mesh, lossless").result.header.mesh_wavelet, MeshWavelet::lifted);
+    EXPECT_EQ(file_of("aligned mesh, lossy").result.header.mesh_wavelet, MeshWavelet::lifted);
+    const auto with_tail = [](Bytes file) {
+        file.insert(file.end(), 50, 0x5A);
+        return file;
+    };
+    // The byte follows the grid's columns and rows (one-byte varints here).
+    Bytes two = write_twi_header(lifted);
+    const size_t at = mesh_offset(lifted) + 2 + 2;
+    ASSERT_EQ(two[at], 0);
+    two[at] = 2;
+    expect_refused(with_tail(with_crc(two)), "mesh wavelet");
+    TwiHeader lossless = lattice;
+    lossless.lossless = true;
+    expect_refused(with_tail(write_twi_header(lossless)), "lossy grids");
+    TwiHeader centres = file_of("aligned mesh, lossy").result.header;
+    centres.mesh_wavelet = MeshWavelet::lattice97;
+    centres.band_norms.resize(1 + 3 * centres.levels, 1.0f);
+    centres.shifts.resize(centres.band_norms.size(), 0);
+    for (auto& c : centres.planes) c.resize(centres.band_norms.size(), 1);
+    expect_refused(with_tail(write_twi_header(centres)), "lossy grids");
+}
+
 // ---- 5. A valid header with an invalid mesh ----
 
 TEST(TwiRobustness, an_invalid_explicit_mesh_is_refused) {

@@ -56,6 +56,8 @@ inline const std::vector<Coded>& coded_files() {
             out.push_back({std::move(name), compress_image(image, o)});
         };
         add("grid mesh, lossy", small, {.max_bytes = 300});
+        add("grid mesh, lifted wavelet, lossy", small,
+            {.max_bytes = 300, .mesh_wavelet = MeshWavelet::lifted});
         add("grid mesh, lossless", small, {.lossless = true});
         add("explicit mesh, lossy", wide, {.max_bytes = 400, .mesh = paper, .levels = 2});
         add("explicit mesh, lossless", wide, {.lossless = true, .mesh = paper, .levels = 2});

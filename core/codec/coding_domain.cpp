@@ -38,7 +38,10 @@ DomainShape still_shape(const TwiHeader& h) {
             .levels = h.levels,
             .mesh = h.mesh,
             .placement = h.placement,
-            .channel_factors = h.channel_factors};
+            .channel_factors = h.channel_factors,
+            .mesh_wavelet = h.mesh_wavelet,
+            .grid_cols = h.grid_cols,
+            .grid_rows = h.grid_rows};
 }
 
 CodingDomain::CodingDomain(DomainShape shape, int probes, std::span<const float> norms)

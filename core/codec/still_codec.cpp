@@ -53,6 +53,7 @@ void choose_mesh(const Image& image, const StillOptions& o, TwiHeader& h) {
     h.grid_cols = grid.cols;
     h.grid_rows = grid.rows;
     h.mesh = grid_mesh(W, H, h.grid_cols, h.grid_rows);
+    if (!o.lossless) h.mesh_wavelet = o.mesh_wavelet;
 }
 
 TwiHeader make_header(const Image& image, const StillOptions& o) {

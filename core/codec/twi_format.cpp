@@ -15,7 +15,7 @@ namespace tesswave {
 namespace {
 
 constexpr uint8_t kMagic[4] = {'T', 'W', 'I', 0x1A};
-constexpr uint32_t kVersion = 2;
+constexpr uint32_t kVersion = 3;
 constexpr double kVertexUnit = 256.0;
 constexpr int64_t kMaxCoordinate = int64_t{1} << 40;  // in vertex units, either sign
 
@@ -25,6 +25,7 @@ void write_mesh(ByteWriter& w, const TwiHeader& h) {
         w.u8(0);
         w.varint(h.grid_cols);
         w.varint(h.grid_rows);
+        w.u8(static_cast<uint8_t>(h.mesh_wavelet));
         return;
     }
     const Mesh& m = h.mesh;
@@ -81,6 +82,13 @@ void read_mesh(ByteReader& r, TwiHeader& h, const TwiLimits& limits, const std::
     if (kind == 0) {
         h.grid_cols = static_cast<int>(r.count("grid columns", 1, h.width));
         h.grid_rows = static_cast<int>(r.count("grid rows", 1, h.height));
+        if (h.version >= 3) {
+            h.mesh_wavelet = static_cast<MeshWavelet>(r.count("mesh wavelet", 0, 1));
+            if (h.mesh_wavelet == MeshWavelet::lattice97 &&
+                (h.lossless || h.placement != MeshPlacement::area)) {
+                r.fail("the 9/7 on the mesh's lattice is for lossy grids placed by area");
+            }
+        }
         if (int64_t{h.grid_cols} * h.grid_rows > limits.max_mesh_vertices) {
             r.fail(str("a ", h.grid_cols, "x", h.grid_rows, " grid mesh exceeds the vertex limit"));
         }
@@ -180,7 +188,9 @@ int aligned_cells(int pixels, int levels) {
 }
 
 int expected_bands(const TwiHeader& h) {
-    if (h.transform == TwiTransform::mesh) return 1 + 2 * h.levels;
+    if (h.transform == TwiTransform::mesh) {
+        return (h.mesh_wavelet == MeshWavelet::lattice97 ? 3 : 2) * h.levels + 1;
+    }
     return static_cast<int>(grid_bands(h.width, h.height, h.levels).size());
 }
 

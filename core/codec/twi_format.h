@@ -6,9 +6,11 @@
 //   width, height varint | levels u8 |
 //   mesh path only: placement u8 (0 domain = pixel rectangle, 1 vertices on pixel centres, a
 //     grid whose size follows from the image and J) |
-//     mesh kind u8: 0 grid (columns, rows varint) or 1 explicit (vertex count, coordinates as
-//     zigzag varint deltas in 1/256 pixel; face count, per face its corner count and zigzag
-//     varint deltas of the corner ids; feature count, feature edges as corner-id pairs) |
+//     mesh kind u8: 0 grid (columns, rows varint; version 3: mesh wavelet u8, 0 the lifted
+//     bilinear, 1 the 9/7 on the lattice of T_J's samples, for lossy area placement) or 1 explicit
+//     (vertex count, coordinates as zigzag varint deltas in 1/256 pixel; face count, per face its
+//     corner count and zigzag varint deltas of the corner ids; feature count, feature edges as
+//     corner-id pairs) |
 //   base step f32 | per channel: step factor f32 | band count varint | per band: norm f32 and
 //   plane shift u8 | per channel and band: bit-planes u8 | CRC-32 of all the bytes above u32
 #pragma once
@@ -26,14 +28,14 @@ namespace tesswave {
 enum class TwiTransform : uint8_t { mesh = 0, grid53 = 1, grid97 = 2 };
 // The wavelet of the mesh path: the paper's lifted bilinear wavelet (any mesh), or the CDF 9/7
 // (fixed_grid.h) on the lattice of T_J's samples, for a grid T0 (grid_lattice_index): the mesh
-// still moves and samples the image; only the transform of its samples changes. Video groups only
-// (.twv version 4).
+// still moves and samples the image; only the transform of its samples changes. Lossy only
+// (.twv version 4, .twi version 3).
 enum class MeshWavelet : uint8_t { lifted = 0, lattice97 = 1 };
 enum class TwiColour : uint8_t { none = 0, ycbcr = 1, ycocg_r = 2 };
 enum class MeshPlacement : uint8_t { area = 0, centres = 1 };
 
 struct TwiHeader {
-    int version = 2;  // as read; written files are version 2 (fast-learning coder models)
+    int version = 3;  // as read; written files are version 3
     TwiTransform transform = TwiTransform::mesh;
     bool lossless = false;
     TwiColour colour = TwiColour::none;
@@ -44,6 +46,8 @@ struct TwiHeader {
     // repeat the edge pixels and are dropped when rendering).
     MeshPlacement placement = MeshPlacement::area;
     int grid_cols = 0, grid_rows = 0;  // > 0: the mesh is grid_mesh(...) and stored as such
+    // Version 3, a lossy grid by area: the transform of its samples (version 1 and 2: lifted).
+    MeshWavelet mesh_wavelet = MeshWavelet::lifted;
     Mesh mesh;
     float base_step = 1.0f;
     std::vector<float> channel_factors;  // per channel
@@ -92,7 +96,8 @@ std::vector<uint8_t> write_twi_header(const TwiHeader& header);
 TwiHeader read_twi_header(std::span<const uint8_t> file, const std::string& name,
                           const TwiLimits& limits = {});
 
-// The number of coding bands the header's transform has (1 + 2 J for the mesh).
+// The number of coding bands the header's transform has (1 + 2 J for the mesh's lifted wavelet,
+// 1 + 3 J on its lattice).
 int expected_bands(const TwiHeader& header);
 
 // Columns (rows) of the grid on pixel centres: ceil((pixels - 1) / 2^J), at least 1.
