@@ -91,4 +91,16 @@ Image scene_image(int width, int height, uint64_t seed) {
     return image;
 }
 
+Image noise_image(int width, int height) {
+    Image image = make_image(width, height, 3);
+    uint32_t state = 12345;
+    for (auto& plane : image.planes) {
+        for (float& v : plane) {
+            state = state * 1664525u + 1013904223u;
+            v = static_cast<float>(state >> 8) / static_cast<float>(1u << 24);
+        }
+    }
+    return image;
+}
+
 }  // namespace tesswave::samples

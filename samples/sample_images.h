@@ -12,4 +12,8 @@ namespace tesswave::samples {
 // a house-like block with sharp edges and rows of glyph-like marks. Values in [0,1].
 Image scene_image(int width, int height, uint64_t seed = 1);
 
+// RGB noise, every value independent (a linear congruential generator from seed 12345): what no
+// wavelet compresses and every sample's place shows in. Values in [0,1).
+Image noise_image(int width, int height);
+
 }  // namespace tesswave::samples

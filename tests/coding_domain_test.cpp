@@ -40,19 +40,6 @@ TEST(GridLattice, EverySampleHasItsOwnLatticePoint) {
     EXPECT_THROW(grid_lattice_index(h, rows, cols), Error);
 }
 
-// Values that differ from pixel to pixel, so that every sample's place shows.
-Image noise_image(int width, int height) {
-    Image image = make_image(width, height, 3, SampleFormat::u8);
-    uint32_t state = 12345;
-    for (auto& plane : image.planes) {
-        for (float& v : plane) {
-            state = state * 1664525u + 1013904223u;
-            v = static_cast<float>(state >> 8) / static_cast<float>(1u << 24);
-        }
-    }
-    return image;
-}
-
 DomainShape lattice_shape(const Mesh& mesh, int cols, int rows, MeshWavelet wavelet) {
     return {.transform = TwiTransform::mesh,
             .width = 48,
@@ -70,7 +57,7 @@ DomainShape lattice_shape(const Mesh& mesh, int cols, int rows, MeshWavelet wave
 // The coefficients are the fixed-grid 9/7 of the samples placed on the lattice by where they sit
 // in the image, whatever the vertex positions (the lattice is the mesh's parameter domain).
 TEST(LatticeWavelet, IsTheGridWaveletOfTheSamplesInTheirPlaces) {
-    const Image image = noise_image(48, 40);
+    const Image image = samples::noise_image(48, 40);
     const Mesh rest = grid_mesh(48, 40, 4, 3);
     const CodingDomain domain(lattice_shape(rest, 4, 3, MeshWavelet::lattice97), 1);
     const int width = (4 << 3) + 1, height = (3 << 3) + 1;

@@ -191,12 +191,6 @@ TEST(VideoCodec, TheSameFileAndFramesOnAnyThreadCount) {
     set_thread_count(0);
 }
 
-}  // namespace
-}  // namespace tesswave::video
-
-namespace tesswave::video {
-namespace {
-
 // RMS distance between the decoded mesh vertices and the true motion of their group-start (rest)
 // positions, over vertices whose true position stays a cell inside the frame (border vertices
 // only slide, and vertices pushed against the border cannot follow content leaving the frame).
@@ -248,12 +242,6 @@ TEST(VideoCodec, MeshFollowsAKnownPanAndBeatsTheStaticMesh) {
     EXPECT_GT(mean_psnr(moving), mean_psnr(still) + 2.0);
     fs::remove(path);
 }
-
-}  // namespace
-}  // namespace tesswave::video
-
-namespace tesswave::video {
-namespace {
 
 // A camera that pans: the group's mesh lies on a canvas as wide as the frame plus the pan, each
 // frame a window on it, so the mesh follows the content without stretching at the border where
@@ -334,12 +322,6 @@ TEST(VideoCodec, SeekingDecodesTheSameFramesAsReadingThrough) {
     fs::remove(path);
 }
 
-}  // namespace
-}  // namespace tesswave::video
-
-namespace tesswave::video {
-namespace {
-
 TEST(VideoCodec, ACutStartsANewGroupAndFlatFramesHoldTheMesh) {
     const samples::SampleClipOptions a{.width = 96, .height = 64, .frames = 4};
     samples::SampleClipOptions b = a;
@@ -363,12 +345,6 @@ TEST(VideoCodec, ACutStartsANewGroupAndFlatFramesHoldTheMesh) {
     for (size_t t = 9; t < frames.size(); ++t) EXPECT_EQ(coded.vertices[t], coded.vertices[8]);
     fs::remove(path);
 }
-
-}  // namespace
-}  // namespace tesswave::video
-
-namespace tesswave::video {
-namespace {
 
 TEST(VideoCodec, QualityTargetsMetOrLoweredToTheMeshCeiling) {
     const std::vector<Image> frames = clip(small_pan());

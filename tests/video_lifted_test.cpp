@@ -9,6 +9,7 @@
 
 #include "core/math/error.h"
 #include "core/math/metrics.h"
+#include "samples/sample_images.h"
 #include "video_testing.h"
 
 namespace tesswave::video {
@@ -16,12 +17,6 @@ namespace {
 
 namespace fs = std::filesystem;
 using namespace testing_video;  // NOLINT: the helpers of these tests
-
-}  // namespace
-}  // namespace tesswave::video
-
-namespace tesswave::video {
-namespace {
 
 // Lifted groups: one slope across a group's temporal bands lands the rate on the target, and the
 // group is coded far better than closed-loop deltas at that rate.
@@ -102,12 +97,6 @@ TEST(VideoCodec, Chroma420LeavesOutTheFinestChromaDetail) {
     fs::remove(path);
 }
 
-}  // namespace
-}  // namespace tesswave::video
-
-namespace tesswave::video {
-namespace {
-
 // --psnr with lifted groups: each group's mean PSNR within 0.5 dB of the target.
 TEST(VideoCodec, LiftedGroupsHoldTheirQualityTarget) {
     const std::vector<Image> frames = clip(slow_pan(24));
@@ -135,12 +124,6 @@ TEST(VideoCodec, LiftedGroupsHoldTheirQualityTarget) {
     fs::remove(path);
 }
 
-}  // namespace
-}  // namespace tesswave::video
-
-namespace tesswave::video {
-namespace {
-
 // A group is also coded on the fixed grid and kept there when that is better: a pan (the moving
 // mesh's case) followed by a still picture of pixel noise (the grid's), in one file that decodes
 // to the encoder's reconstruction. Without the grid candidate no group is on the grid and the
@@ -149,14 +132,7 @@ TEST(VideoCodec, EachGroupKeepsTheMeshOrTheFixedGridWhicheverIsBetter) {
     const samples::SampleClipOptions o{
         .width = 96, .height = 64, .frames = 8, .pan = {1.25, 0.5}, .object = true};
     std::vector<Image> frames = clip(o);
-    Image noise = make_image(o.width, o.height, 3);
-    uint32_t state = 12345;
-    for (auto& plane : noise.planes) {
-        for (float& v : plane) {
-            state = state * 1664525u + 1013904223u;
-            v = static_cast<float>(state >> 8) / static_cast<float>(1 << 24);
-        }
-    }
+    const Image noise = samples::noise_image(o.width, o.height);
     for (int t = 0; t < 8; ++t) frames.push_back(noise);
     const std::string path = temp_path("grid_groups.twv");
     const auto squared_error = [&](const Coded& c) {

@@ -39,7 +39,8 @@ std::vector<int32_t> grid_lattice_index(const Hierarchy& hierarchy, int cols, in
     const int J = hierarchy.finest();
     const int64_t width = grid_lattice_side(cols, J), height = grid_lattice_side(rows, J);
     const int32_t n = hierarchy.num_samples(J);
-    if (J > 20 || width * height != n || hierarchy.num_samples(0) != (cols + 1) * (rows + 1)) {
+    if (J > 20 || width * height != n ||
+        hierarchy.num_samples(0) != int64_t{cols + 1} * (rows + 1)) {
         throw Error(str("the mesh is not a ", cols, "x", rows, " grid"));
     }
     // Refined from the grid of unit cells scaled by 2^J, every T_J sample sits on an integer
