@@ -119,5 +119,61 @@ TEST(LatticeWavelet, NeedsAGridMesh) {
     EXPECT_THROW(domain.analyze_int(samples::scene_image(48, 40, 1)), Error);
 }
 
+// An encoder's band norms can be those of the rendered image: the renderer's bilinear interpolation
+// damps the finest bands of a mesh about as fine as the pixels (and not aligned with them), most
+// of all the diagonal ones, while coarse bands keep the norms of their samples. Decoders take the
+// norms they are given.
+TEST(BandNorms, AreWeighedByRendering) {
+    const int width = 64, height = 48, J = 4;
+    const Mesh grid = grid_mesh(width, height, 4, 3);
+    DomainShape shape = lattice_shape(grid, 4, 3, MeshWavelet::lattice97);
+    shape.width = width, shape.height = height, shape.levels = J;
+    const int lw = (4 << J) + 1, lh = (3 << J) + 1;  // 65 x 49 samples for 64 x 48 pixels
+    const double unit = std::sqrt(double{width} * height / (lw * lh));
+    for (MeshWavelet wavelet : {MeshWavelet::lattice97, MeshWavelet::lifted}) {
+        SCOPED_TRACE(static_cast<int>(wavelet));
+        shape.mesh_wavelet = wavelet;
+        const CodingDomain domain(shape, 1, {}, BandNorms::rendered);
+        const CodingLayout samples_norms =
+            wavelet == MeshWavelet::lattice97
+                ? grid_layout(lw, lh, J, GridWavelet::cdf97)
+                : mesh_layout(*domain.hierarchy(), double{width} * height, 1);
+        const auto& bands = domain.layout().bands;
+        ASSERT_EQ(bands.size(), samples_norms.bands.size());
+        std::vector<double> ratio;
+        for (size_t b = 0; b < bands.size(); ++b) {
+            const double reference =
+                samples_norms.bands[b].norm * (wavelet == MeshWavelet::lattice97 ? unit : 1.0);
+            ratio.push_back(bands[b].norm / reference);
+            EXPECT_LE(ratio.back(), 1.01) << b;
+            EXPECT_GT(ratio.back(), 0.0) << b;
+        }
+        // The coarsest band: within 2 % (its samples' energy counts the border samples as whole
+        // ones, and 65 x 49 samples stand for 64 x 48 pixels).
+        EXPECT_NEAR(ratio[0], 1.0, 0.02);
+        const size_t n = bands.size();
+        if (wavelet == MeshWavelet::lattice97) {  // the finest level's H, V and D
+            EXPECT_LT(ratio[n - 3], 0.9);
+            EXPECT_LT(ratio[n - 2], 0.9);
+            EXPECT_LT(ratio[n - 1], std::min(ratio[n - 3], ratio[n - 2]));
+        } else {  // the finest level's edge and face points
+            EXPECT_LT(ratio[n - 2], 0.95);
+            EXPECT_LT(ratio[n - 1], 0.95);
+        }
+        // The samples' norms, unless asked.
+        const CodingDomain unweighed(shape, 1);
+        for (size_t b = 0; b < n; ++b) {
+            const double reference =
+                samples_norms.bands[b].norm * (wavelet == MeshWavelet::lattice97 ? unit : 1.0);
+            EXPECT_NEAR(unweighed.layout().bands[b].norm, reference, 1e-9 * reference) << b;
+        }
+        // A decoder keeps the norms it reads.
+        std::vector<float> given;
+        for (const CodingBand& b : bands) given.push_back(static_cast<float>(b.norm));
+        const CodingDomain decoder(shape, 0, given);
+        for (size_t b = 0; b < n; ++b) EXPECT_EQ(decoder.layout().bands[b].norm, given[b]);
+    }
+}
+
 }  // namespace
 }  // namespace tesswave

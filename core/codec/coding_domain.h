@@ -66,11 +66,17 @@ struct DomainShape {
 // The shape a .twi header describes.
 DomainShape still_shape(const TwiHeader& header);
 
+// What an encoder's band norms measure: the samples' basis functions (in pixel units), or the
+// image they render to, where the renderer's bilinear interpolation damps fine detail
+// (weigh_norms_by_rendering; mesh samples placed by area only, else the same as samples).
+enum class BandNorms : uint8_t { samples, rendered };
+
 class CodingDomain {
   public:
-    // Band norms: measured with `probes` impulses per band (encoders), or, with probes == 0, taken
-    // from `norms` (decoders; its size must match the layout's bands).
-    CodingDomain(DomainShape shape, int probes, std::span<const float> norms = {});
+    // Band norms: measured with `probes` impulses per band (encoders) as `weigh` says, or, with
+    // probes == 0, taken from `norms` (decoders; its size must match the layout's bands).
+    CodingDomain(DomainShape shape, int probes, std::span<const float> norms = {},
+                 BandNorms weigh = BandNorms::samples);
 
     const DomainShape& shape() const { return shape_; }
     const CodingLayout& layout() const { return layout_; }
@@ -118,6 +124,9 @@ class CodingDomain {
 
   private:
     void check_image(const Image& image) const;
+    // Encoders, area placement: the band norms of the image `plan` renders at rest (the renderer
+    // damps fine detail), not of the samples.
+    void weigh_norms_by_rendering(const RenderPlan& plan);
     bool at_rest(std::span<const Vec2> vertices) const;  // the rest positions, as rest_plan_'s
     bool rest_plan_is_pixels() const;
     void transform(Planes& samples) const;  // colour transform and analysis
@@ -140,13 +149,14 @@ class CodingDomain {
     CodingLayout layout_;
 };
 
-// The domain CodingDomain(shape, probes, norms) builds, from a small process-wide cache: the
-// last few domains are kept, so that coding with one mesh and size again (compare's rates, the
-// groups of a video, a benchmark) reuses the hierarchy, coding layout and render plan instead of
-// building them anew (for a mesh they are most of a decode). Entries are equal when shape, probe
-// count and norms are. Thread-safe; a domain is read-only, so one entry may serve many threads.
+// The domain CodingDomain(shape, probes, norms, weigh) builds, from a small process-wide cache:
+// the last few domains are kept, so that coding with one mesh and size again (compare's rates,
+// the groups of a video, a benchmark) reuses the hierarchy, coding layout and render plan instead
+// of building them anew (for a mesh they are most of a decode). Entries are equal when all four
+// are. Thread-safe; a domain is read-only, so one entry may serve many threads.
 std::shared_ptr<const CodingDomain> shared_domain(const DomainShape& shape, int probes,
-                                                  std::span<const float> norms = {});
+                                                  std::span<const float> norms = {},
+                                                  BandNorms weigh = BandNorms::samples);
 
 // Empties that cache (its memory is freed once no caller holds a domain).
 void clear_domain_cache();

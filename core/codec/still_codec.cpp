@@ -201,21 +201,28 @@ Coded code(const CodingDomain& domain, const TwiHeader& base, const IntPlanes& q
 }
 
 // The projections the encoder tries beside point sampling: none (the closest render, for the
-// highest qualities) and smoothness weights that keep the finest bands cheap. On Kodak 1, 3 and 8
-// at density 1, the best of 0.001 to 0.03 was 0.01 or 0.03 at 0.5 bpp and 0.001 to 0.01 at 2 bpp;
-// a penalty on the finest detail alone (d = sample less the mean of its coarser neighbours) was
-// 0.3 to 2 dB behind smoothness at 1 and 2 bpp and was dropped. They are solved smoothest first,
-// each from the one before (analyze_fits): on Kodak 1 that took 66 iterations in all where four
-// solves from the point samples took 72, and left the unsmoothed one closer to its solution.
-constexpr double kFitSmoothness[] = {0.03, 0.01, 0.003, 0.0};
+// highest qualities) and smoothness weights that keep the finest bands cheap, each for targets
+// from a size (bits per pixel) or a PSNR on (or with no target). On Kodak 1, 3 and 8 at density 1,
+// the best of 0.001 to 0.03 was 0.01 or 0.03 at 0.5 bpp and 0.001 to 0.01 at 2 bpp; a penalty on
+// the finest detail alone (d = sample less the mean of its coarser neighbours) was 0.3 to 2 dB
+// behind smoothness at 1 and 2 bpp and was dropped. They are solved smoothest first, each from the
+// one before (analyze_fits): on Kodak 1 that took 66 iterations in all where four solves from the
+// point samples took 72, and left the unsmoothed one closer to its solution.
+// - 0.001: with band norms weighed by rendering, Kodak 1-8 at 2 bpp chose it over 0.003 on all
+//   eight (+0.04 to +0.37 dB, mean +0.20); at 1 bpp 0.003 won on all eight. 0.0003 in its place
+//   was 0.04 to 0.23 dB behind it at 2 bpp.
+// - 0 (the costliest solve: it runs to the iteration limit): it never won below 3 bpp or 40 dB
+//   (Kodak 1-8 at 0.25, 1 and 2 bpp, Kodak 1, 3 and 7 at 3 bpp); it won on Kodak 1 from 4 bpp
+//   (38.98 dB) and on Kodak 3 and 7 from 6 bpp.
+struct FitChoice {
+    double smoothness, from_bpp, from_psnr;
+};
+constexpr FitChoice kFits[] = {
+    {0.03, 0, 0}, {0.01, 0, 0}, {0.003, 0, 0}, {0.001, 1.5, 33}, {0.0, 3, 40}};
 
-// The unsmoothed projection (the costliest solve: it runs to the iteration limit) is tried only
-// for targets of at least 3 bpp or 40 dB, or none. Among the projections it never won below that:
-// Kodak 1-8 at 0.25, 1 and 2 bpp and Kodak 1, 3 and 7 at 3 bpp chose 0.03, 0.01 or 0.003; it
-// won on Kodak 1 from 4 bpp (38.98 dB) and on Kodak 3 and 7 from 6 bpp.
-bool try_unsmoothed(const StillOptions& o, int64_t pixels) {
-    if (o.max_bytes > 0) return o.max_bytes * 8 >= 3 * pixels;
-    if (o.target_psnr > 0) return o.target_psnr >= 40;
+bool worth_trying(const FitChoice& fit, const StillOptions& o, int64_t pixels) {
+    if (o.max_bytes > 0) return o.max_bytes * 8.0 >= fit.from_bpp * static_cast<double>(pixels);
+    if (o.target_psnr > 0) return o.target_psnr >= fit.from_psnr;
     return true;
 }
 
@@ -300,8 +307,9 @@ StillResult compress_image(const Image& image, const StillOptions& o) {
     StillResult result;
     TwiHeader h = make_header(image, o);
     progress(o, 0.0, "preparing");
-    const auto shared =
-        shared_domain(still_shape(h), o.lossless ? std::max(o.norm_probes, 1) : o.norm_probes);
+    const auto shared = o.lossless
+                            ? shared_domain(still_shape(h), std::max(o.norm_probes, 1))
+                            : shared_domain(still_shape(h), o.norm_probes, {}, BandNorms::rendered);
     const CodingDomain& domain = *shared;
     const CodingLayout& layout = domain.layout();
     for (const CodingBand& b : layout.bands) h.band_norms.push_back(static_cast<float>(b.norm));
@@ -333,9 +341,9 @@ StillResult compress_image(const Image& image, const StillOptions& o) {
     };
     std::vector<Choice> choices = {{Sampling::point, 0}};
     if (o.sampling == Sampling::fit && o.transform == TwiTransform::mesh && !o.aligned) {
-        for (double beta : kFitSmoothness) {
-            if (beta > 0 || try_unsmoothed(o, int64_t{image.width} * image.height))
-                choices.push_back({Sampling::fit, beta});
+        for (const FitChoice& fit : kFits) {
+            if (worth_trying(fit, o, int64_t{image.width} * image.height))
+                choices.push_back({Sampling::fit, fit.smoothness});
         }
     }
     std::vector<Coded> coded;
