@@ -5,8 +5,10 @@
 #include <cmath>
 
 #include "core/math/grid_mesh.h"
+#include "core/math/parallel.h"
 #include "core/math/sampling.h"
 #include "core/math/voronoi.h"
+#include "samples/sample_images.h"
 #include "samples/sample_meshes.h"
 #include "test_meshes.h"
 
@@ -142,6 +144,43 @@ TEST(Sampling, prefilter_averages_where_cells_are_larger_than_pixels) {
     }
     EXPECT_GT(raw_dev, 0.4);
     EXPECT_LT(filtered_dev, 0.01);
+}
+
+// Cells at most 7 % larger than a pixel read the image alone (one bilinear read, no pyramid);
+// larger ones blend in the 2x2 averages, more the larger they are.
+TEST(Sampling, cells_about_a_pixel_read_the_image_alone) {
+    const Image image = samples::scene_image(256, 192);
+    const auto differs = [&](int cols, int rows) {  // from the unfiltered samples, at most
+        const Mesh mesh = grid_mesh(256, 192, cols, rows);
+        const Hierarchy h = build_hierarchy(mesh, {.levels = 4});
+        const auto raw = sample_image(image, h, mesh.vertices, {.prefilter = false});
+        const auto filtered = sample_image(image, h, mesh.vertices);
+        double most = 0;
+        for (int c = 0; c < 3; ++c) {
+            for (size_t i = 0; i < raw[c].size(); ++i)
+                most = std::max(most, double{std::abs(raw[c][i] - filtered[c][i])});
+        }
+        return most;
+    };
+    EXPECT_EQ(differs(16, 12), 0.0);           // cells of 1 x 1 pixel
+    EXPECT_EQ(differs(15, 12), 0.0);           // 1.067 x 1
+    EXPECT_GT(differs(12, 9), 0.01);           // 1.33 x 1.33
+    EXPECT_GT(differs(8, 6), differs(12, 9));  // 2 x 2
+}
+
+// Quads are shared among the cores; a sample on a border between quads read at different
+// pyramid levels is written by one of them, the same whatever the thread count.
+TEST(Sampling, samples_are_identical_whatever_the_thread_count) {
+    const Image image = samples::scene_image(160, 120);
+    const Mesh mesh = voronoi_mesh(160, 120, {.sites = 30, .seed = 4});
+    const Hierarchy h = build_hierarchy(mesh, {.levels = 3});  // cells of 2 to 5 pixels
+    set_thread_count(1);
+    const auto one = sample_image(image, h, mesh.vertices);
+    for (int threads : {2, 3}) {
+        set_thread_count(threads);
+        EXPECT_EQ(sample_image(image, h, mesh.vertices), one) << threads << " threads";
+    }
+    set_thread_count(0);
 }
 
 }  // namespace

@@ -47,6 +47,21 @@ inline Tap tap(int w, int h, double inv_size, Vec2 p) {
             static_cast<float>(fx - x0),      static_cast<float>(fy - y0)};
 }
 
+// The pyramid level (fractional: trilinear) that samples cells of `size` pixels, at most `top`:
+// log2 of the size, except that cells up to kNoBlend pixels read the image alone, and the blend
+// with level 1 rises from 0 there to 1 at 2 pixels. A cell a pixel or two percent larger than a
+// pixel (a grid at density 1 whose cells do not divide the image evenly: 1280x720 gets cells of
+// 1 x 1.023 pixels) then costs one bilinear read, not two and a pyramid; the pyramid would add
+// 1 to 3 % of a 2x2 average.
+constexpr double kNoBlend = 1.07;
+constexpr int kMaxPyramid = 30;
+double pyramid_level(double size, int top) {
+    const double lod = std::log2(std::max(1.0, size));
+    if (lod >= 1) return std::min(lod, double(top));
+    const double from = std::log2(kNoBlend);
+    return lod <= from ? 0.0 : std::min((lod - from) / (1 - from), double(top));
+}
+
 inline float apply(const Tap& t, const float* plane) {
     const float top = plane[t.i00] + (plane[t.i01] - plane[t.i00]) * t.tx;
     const float bottom = plane[t.i10] + (plane[t.i11] - plane[t.i10]) * t.tx;
@@ -137,7 +152,7 @@ void sample_image_into(const Image& image, const Hierarchy& h, std::span<const V
         largest = std::max(largest, std::sqrt(std::abs(signed_area(q))) / m);
     std::vector<Image> mips;
     const Image* level0 = &image;
-    if (options.prefilter && largest > 1.0) {
+    if (options.prefilter && pyramid_level(largest, kMaxPyramid) > 0) {
         const int needed = static_cast<int>(std::ceil(std::log2(largest)));
         for (int l = 0; l < needed && (mips.empty() ? image : mips.back()).width > 1; ++l) {
             mips.push_back(half_size(mips.empty() ? image : mips.back()));
@@ -145,13 +160,23 @@ void sample_image_into(const Image& image, const Hierarchy& h, std::span<const V
     }
     auto pyramid = [&](int l) -> const Image& { return l == 0 ? *level0 : mips[l - 1]; };
     const int top = static_cast<int>(mips.size());
+    // A sample on a quad's border belongs to several quads, which may read it at other pyramid
+    // levels: the last quad in order that holds it writes it, whatever the thread count.
+    std::vector<int32_t> owner(static_cast<size_t>(t.n_vertices));
+    for (size_t p = 0; p < quads.size(); ++p) {
+        const int32_t* grid = &t.patch_grid[p * side * side];
+        for (int32_t k = 0; k <= m; ++k) {
+            for (int32_t i : {k, m * side + k, k * side, k * side + m}) {
+                owner[grid[i]] = static_cast<int32_t>(p);
+            }
+        }
+    }
     // Quad by quad along its grid rows, so that image reads stay local. Grid node (r, c) is the
     // bilinear map at (c/m, r/m): the position refinement gives it (DESIGN.md 2.2).
-    for (size_t p = 0; p < quads.size(); ++p) {
+    const auto sample_quad = [&](size_t p) {
         const Quad& q = quads[p];
         const double size = std::sqrt(std::abs(signed_area(q))) / m;
-        const double lod =
-            top == 0 ? 0.0 : std::clamp(std::log2(std::max(1.0, size)), 0.0, double(top));
+        const double lod = top == 0 ? 0.0 : pyramid_level(size, top);
         const int l0 = static_cast<int>(lod), l1 = std::min(l0 + 1, top);
         const float w1 = static_cast<float>(lod - l0);
         const Image& a = pyramid(l0);
@@ -161,9 +186,12 @@ void sample_image_into(const Image& image, const Hierarchy& h, std::span<const V
         for (int32_t r = 0; r <= m; ++r) {
             const Vec2 left = lerp(q[0], q[3], double(r) / m);
             const Vec2 right = lerp(q[1], q[2], double(r) / m);
+            const bool border_row = r == 0 || r == m;
             for (int32_t c = 0; c <= m; ++c) {
-                const Vec2 pos = lerp(left, right, double(c) / m);
                 const int32_t id = grid[r * side + c];
+                if ((border_row || c == 0 || c == m) && owner[id] != static_cast<int32_t>(p))
+                    continue;
+                const Vec2 pos = lerp(left, right, double(c) / m);
                 const Tap ta = tap(a.width, a.height, inv_a, pos);
                 if (w1 == 0) {
                     for (int ch = 0; ch < channels; ++ch)
@@ -177,7 +205,10 @@ void sample_image_into(const Image& image, const Hierarchy& h, std::span<const V
                 }
             }
         }
-    }
+    };
+    parallel_for(static_cast<int64_t>(quads.size()), [&](int64_t begin, int64_t end) {
+        for (int64_t p = begin; p < end; ++p) sample_quad(static_cast<size_t>(p));
+    });
 }
 
 int level_for_density(const Mesh& mesh, int pixels, double density, int max_level) {

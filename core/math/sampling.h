@@ -2,7 +2,9 @@
 // with pixel (i,k)'s value at its centre (i+1/2, k+1/2) and edges clamped. Where the mesh is
 // coarser than the pixels (a T_j cell spans more than one pixel) the image is prefiltered: it is
 // read from a mip pyramid of 2x2 box averages at the level matching the cell's size, blending the
-// two nearest pyramid levels (trilinear), so coarse meshes average instead of aliasing.
+// two nearest pyramid levels (trilinear), so coarse meshes average instead of aliasing. Cells at
+// most 7 % larger than a pixel read the image alone. Quads are sampled in parallel; a sample on
+// the border of several quads is written by the last of them, whatever the thread count.
 #pragma once
 
 #include <span>

@@ -1,5 +1,6 @@
 // Sampling and rendering a 1280x720 RGB image at density 2 beside OpenCV's cv::remap (bilinear)
-// on the same image size. Items are image pixels, so every figure is per frame of 1280x720.
+// on the same image size. Items are image pixels, so every figure is per frame of 1280x720. One
+// thread, except the rows of remap and of sampling with a "threads" argument (wall time).
 #include <benchmark/benchmark.h>
 
 #include <cmath>
@@ -11,6 +12,7 @@
 #include "core/math/render.h"
 #include "core/math/sampling.h"
 #include "core/math/voronoi.h"
+#include "row_threads.h"
 #include "samples/sample_images.h"
 #include "samples/sample_meshes.h"
 
@@ -85,6 +87,7 @@ void BM_sample_apply(benchmark::State& state) {
 // Sampling including the refinement of the positions and the prefilter decision.
 void BM_sample_full(benchmark::State& state) {
     const Setup& s = setup();
+    const RowThreads row(state.range(0));
     auto out = s.samples;  // reused, as remap's dst
     const std::vector<std::span<float>> spans(out.begin(), out.end());
     for (auto _ : state) {
@@ -109,6 +112,7 @@ const DensityOne& density_one() {
 
 void BM_sample_full_density1(benchmark::State& state) {
     const DensityOne& d = density_one();
+    const RowThreads row(state.range(0));
     for (auto _ : state)
         benchmark::DoNotOptimize(sample_image(setup().image, d.h, d.mesh.vertices));
     state.SetItemsProcessed(state.iterations() * int64_t{kWidth} * kHeight);
@@ -142,21 +146,38 @@ void BM_cv_remap(benchmark::State& state) {
             map_y.at<float>(y, x) = static_cast<float>(y + 3 * std::cos(x / 50.0));
         }
     }
+    cv::setNumThreads(static_cast<int>(state.range(0)));
     for (auto _ : state) {
         cv::remap(src, dst, map_x, map_y, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
         benchmark::DoNotOptimize(dst.data);
     }
+    cv::setNumThreads(1);
     state.SetItemsProcessed(state.iterations() * int64_t{kWidth} * kHeight);
 }
 
 }  // namespace
 
-BENCHMARK(BM_cv_remap)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_cv_remap)
+    ->ArgName("threads")
+    ->Arg(1)
+    ->Arg(2)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 BENCHMARK(BM_render_apply)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_render_plan)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_sample_apply)->Unit(benchmark::kMillisecond);
-BENCHMARK(BM_sample_full)->Unit(benchmark::kMillisecond);
-BENCHMARK(BM_sample_full_density1)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_sample_full)
+    ->ArgName("threads")
+    ->Arg(1)
+    ->Arg(2)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+BENCHMARK(BM_sample_full_density1)
+    ->ArgName("threads")
+    ->Arg(1)
+    ->Arg(2)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 BENCHMARK(BM_project_density1)->Unit(benchmark::kMillisecond);
 
 }  // namespace tesswave
