@@ -167,6 +167,11 @@ TEST(BandNorms, AreWeighedByRendering) {
                 samples_norms.bands[b].norm * (wavelet == MeshWavelet::lattice97 ? unit : 1.0);
             EXPECT_NEAR(unweighed.layout().bands[b].norm, reference, 1e-9 * reference) << b;
         }
+        // The shared cache tells the two apart.
+        const auto rendered = shared_domain(shape, 1, {}, BandNorms::rendered);
+        const auto plain = shared_domain(shape, 1);
+        EXPECT_EQ(rendered->layout().bands[n - 1].norm, bands[n - 1].norm);
+        EXPECT_EQ(plain->layout().bands[n - 1].norm, unweighed.layout().bands[n - 1].norm);
         // A decoder keeps the norms it reads.
         std::vector<float> given;
         for (const CodingBand& b : bands) given.push_back(static_cast<float>(b.norm));

@@ -146,12 +146,14 @@ TEST(Sampling, prefilter_averages_where_cells_are_larger_than_pixels) {
     EXPECT_LT(filtered_dev, 0.01);
 }
 
-// Cells at most 7 % larger than a pixel read the image alone (one bilinear read, no pyramid);
-// larger ones blend in the 2x2 averages, more the larger they are.
+// Cells of at most 1.07 pixels a side (the side of a square of their area) read the image alone
+// (one bilinear read, no pyramid); larger ones blend in the 2x2 averages, more the larger they are.
 TEST(Sampling, cells_about_a_pixel_read_the_image_alone) {
-    const Image image = samples::scene_image(256, 192);
-    const auto differs = [&](int cols, int rows) {  // from the unfiltered samples, at most
-        const Mesh mesh = grid_mesh(256, 192, cols, rows);
+    // How far the samples of a 16 x 12 grid at J = 4 over a width x height image are from the
+    // unfiltered ones, at most.
+    const auto differs = [](int width, int height) {
+        const Image image = samples::scene_image(width, height);
+        const Mesh mesh = grid_mesh(width, height, 16, 12);
         const Hierarchy h = build_hierarchy(mesh, {.levels = 4});
         const auto raw = sample_image(image, h, mesh.vertices, {.prefilter = false});
         const auto filtered = sample_image(image, h, mesh.vertices);
@@ -162,10 +164,13 @@ TEST(Sampling, cells_about_a_pixel_read_the_image_alone) {
         }
         return most;
     };
-    EXPECT_EQ(differs(16, 12), 0.0);           // cells of 1 x 1 pixel
-    EXPECT_EQ(differs(15, 12), 0.0);           // 1.067 x 1
-    EXPECT_GT(differs(12, 9), 0.01);           // 1.33 x 1.33
-    EXPECT_GT(differs(8, 6), differs(12, 9));  // 2 x 2
+    EXPECT_EQ(differs(256, 192), 0.0);                // cells of 1 x 1 pixel
+    EXPECT_EQ(differs(272, 192), 0.0);                // 1.0625 x 1: 1.031 a side
+    EXPECT_EQ(differs(274, 205), 0.0);                // 1.070 x 1.068: 1.069 a side
+    EXPECT_GT(differs(276, 206), 0.0);                // 1.078 x 1.073: 1.076 a side
+    EXPECT_GT(differs(288, 216), differs(276, 206));  // 1.125 x 1.125
+    EXPECT_GT(differs(341, 256), 0.01);               // 1.33 x 1.33
+    EXPECT_GT(differs(512, 384), differs(341, 256));  // 2 x 2
 }
 
 // Quads are shared among the cores; a sample on a border between quads read at different

@@ -68,7 +68,8 @@ DomainShape still_shape(const TwiHeader& header);
 
 // What an encoder's band norms measure: the samples' basis functions (in pixel units), or the
 // image they render to, where the renderer's bilinear interpolation damps fine detail
-// (weigh_norms_by_rendering; mesh samples placed by area only, else the same as samples).
+// (weigh_norms_by_rendering; mesh samples placed by area, not on a canvas, only: elsewhere the
+// same as samples).
 enum class BandNorms : uint8_t { samples, rendered };
 
 class CodingDomain {
@@ -124,12 +125,13 @@ class CodingDomain {
 
   private:
     void check_image(const Image& image) const;
-    // Encoders, area placement: the band norms of the image `plan` renders at rest (the renderer
+    // Encoders, area placement at rest: the band norms of the image `plan` renders (the renderer
     // damps fine detail), not of the samples.
     void weigh_norms_by_rendering(const RenderPlan& plan);
     bool at_rest(std::span<const Vec2> vertices) const;  // the rest positions, as rest_plan_'s
     bool rest_plan_is_pixels() const;
     void transform(Planes& samples) const;  // colour transform and analysis
+    void synthesis(Planes& x) const;        // the inverse transform of any number of planes
     void inverse(Planes& x) const;          // synthesis and inverse colour transform
     void lattice_transform(Planes& x, bool forward) const;
     void sample_into(const Image& image, std::span<const Vec2> vertices, Planes& out,

@@ -2,9 +2,10 @@
 // with pixel (i,k)'s value at its centre (i+1/2, k+1/2) and edges clamped. Where the mesh is
 // coarser than the pixels (a T_j cell spans more than one pixel) the image is prefiltered: it is
 // read from a mip pyramid of 2x2 box averages at the level matching the cell's size, blending the
-// two nearest pyramid levels (trilinear), so coarse meshes average instead of aliasing. Cells at
-// most 7 % larger than a pixel read the image alone. Quads are sampled in parallel; a sample on
-// the border of several quads is written by the last of them, whatever the thread count.
+// two nearest pyramid levels (trilinear), so coarse meshes average instead of aliasing. Cells whose
+// area is at most that of a square 1.07 pixels a side read the image alone. Quads are sampled in
+// parallel; a sample on the border of several quads is written by the last of them, whatever the
+// thread count.
 #pragma once
 
 #include <span>
@@ -22,7 +23,7 @@ std::vector<std::vector<float>> sample_bilinear(const Image& image,
 
 struct SampleOptions {
     int level = -1;         // -1: the finest level
-    bool prefilter = true;  // mip-mapped where cells are larger than a pixel
+    bool prefilter = true;  // mip-mapped where cells are larger than a pixel (1.07 a side)
 };
 
 // The image at every sample of the level; the mesh domain is taken to be the image's pixel
