@@ -6,7 +6,6 @@
 
 #include "core/codec/byte_io.h"
 #include "core/math/error.h"
-#include "core/math/fixed_grid.h"
 #include "core/math/strings.h"
 
 namespace tesswave::video {
@@ -123,12 +122,7 @@ std::vector<uint8_t> twv_chunk(uint8_t tag, std::span<const uint8_t> payload) {
 }
 
 int twv_band_count(const TwvGroup& g, const TwvHeader& h) {
-    if (g.transform == TwiTransform::mesh && g.mesh_wavelet == MeshWavelet::lattice97) {
-        // Every level of the lattice keeps both sides at 2 or more (cells 2^l + 1).
-        return 1 + 3 * g.levels;
-    }
-    if (g.transform == TwiTransform::mesh) return 1 + 2 * g.levels;
-    return static_cast<int>(grid_bands(h.width, h.height, g.levels).size());
+    return coding_band_count(g.transform, g.mesh_wavelet, g.levels, h.width, h.height);
 }
 
 std::vector<std::vector<uint8_t>> twv_padding(int64_t bytes, int64_t most) {

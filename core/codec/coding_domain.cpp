@@ -128,7 +128,8 @@ constexpr double kRenderedWeight = 0.25;
 // weighed: not measurable in `compress` of a Kodak image (768x512, 19 bands).
 void CodingDomain::weigh_norms_by_rendering(const RenderPlan& plan) {
     const double pixel_units = static_cast<double>(plan.width) * plan.height / size();
-    std::vector<float> plane(static_cast<size_t>(size()));
+    Planes x(1, std::vector<float>(static_cast<size_t>(size())));
+    std::vector<float>& plane = x[0];  // synthesis() keeps the vector, swapping its contents
     Image rendered = make_image(plan.width, plan.height, 1, SampleFormat::f32);
     uint32_t state = 0x2545F491u;
     int level = -2;
@@ -145,10 +146,7 @@ void CodingDomain::weigh_norms_by_rendering(const RenderPlan& plan) {
             state = state * 1664525u + 1013904223u;  // a linear congruential generator
             plane[layout_.order[k]] = (state >> 31) ? 1.0f : -1.0f;
         }
-        Planes x(1);
-        x[0].swap(plane);
         synthesis(x);
-        plane.swap(x[0]);
         double samples = 0, pixels = 0;
         for (float v : plane) samples += double{v} * v;
         render_into(plan, std::vector<std::span<const float>>{plane}, rendered);

@@ -203,12 +203,11 @@ Coded code(const CodingDomain& domain, const TwiHeader& base, const IntPlanes& q
 // The projections the encoder tries beside point sampling: none (the closest render, for the
 // highest qualities) and smoothness weights that keep the finest bands cheap, each tried for
 // targets of at least its size (bits per pixel) or PSNR, and with no target. On Kodak 1, 3 and 8
-// at density 1,
-// the best of 0.001 to 0.03 was 0.01 or 0.03 at 0.5 bpp and 0.001 to 0.01 at 2 bpp; a penalty on
-// the finest detail alone (d = sample less the mean of its coarser neighbours) was 0.3 to 2 dB
-// behind smoothness at 1 and 2 bpp and was dropped. They are solved smoothest first, each from the
-// one before (analyze_fits): on Kodak 1 that took 66 iterations in all where four solves from the
-// point samples took 72, and left the unsmoothed one closer to its solution.
+// at density 1, the best of 0.001 to 0.03 was 0.01 or 0.03 at 0.5 bpp and 0.001 to 0.01 at 2 bpp;
+// a penalty on the finest detail alone (d = sample less the mean of its coarser neighbours) was
+// 0.3 to 2 dB behind smoothness at 1 and 2 bpp and was dropped. They are solved smoothest first,
+// each from the one before (analyze_fits): on Kodak 1 that took 66 iterations in all where four
+// solves from the point samples took 72, and left the unsmoothed one closer to its solution.
 // - 0.001: with band norms weighed by rendering, Kodak 1-8 at 2 bpp chose it over 0.003 on all
 //   eight (+0.04 to +0.37 dB, mean +0.20); at 1 bpp 0.003 won on all eight. 0.0003 in its place
 //   was 0.04 to 0.23 dB behind it at 2 bpp. With --psnr it is tried from 33 dB, the lowest PSNR

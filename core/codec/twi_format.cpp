@@ -187,11 +187,16 @@ int aligned_cells(int pixels, int levels) {
         1, static_cast<int>(((int64_t{pixels} - 1 + (int64_t{1} << levels) - 1) >> levels)));
 }
 
-int expected_bands(const TwiHeader& h) {
-    if (h.transform == TwiTransform::mesh) {
-        return (h.mesh_wavelet == MeshWavelet::lattice97 ? 3 : 2) * h.levels + 1;
+int coding_band_count(TwiTransform transform, MeshWavelet wavelet, int levels, int width,
+                      int height) {
+    if (transform == TwiTransform::mesh) {
+        return (wavelet == MeshWavelet::lattice97 ? 3 : 2) * levels + 1;
     }
-    return static_cast<int>(grid_bands(h.width, h.height, h.levels).size());
+    return static_cast<int>(grid_bands(width, height, levels).size());
+}
+
+int expected_bands(const TwiHeader& h) {
+    return coding_band_count(h.transform, h.mesh_wavelet, h.levels, h.width, h.height);
 }
 
 std::vector<uint8_t> write_twi_header(const TwiHeader& h) {

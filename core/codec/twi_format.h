@@ -96,8 +96,13 @@ std::vector<uint8_t> write_twi_header(const TwiHeader& header);
 TwiHeader read_twi_header(std::span<const uint8_t> file, const std::string& name,
                           const TwiLimits& limits = {});
 
-// The number of coding bands the header's transform has (1 + 2 J for the mesh's lifted wavelet,
-// 1 + 3 J on its lattice).
+// The number of coding bands of a transform at `levels`: 1 + 2 J for the mesh's lifted wavelet,
+// 1 + 3 J on its lattice (every level keeps both sides at 2 or more: cells 2^l + 1), the fixed
+// grid's bands of a width x height plane. Shared by the .twi and .twv readers.
+int coding_band_count(TwiTransform transform, MeshWavelet wavelet, int levels, int width,
+                      int height);
+
+// The number of coding bands the header's transform has.
 int expected_bands(const TwiHeader& header);
 
 // Columns (rows) of the grid on pixel centres: ceil((pixels - 1) / 2^J), at least 1.
