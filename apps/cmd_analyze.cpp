@@ -98,7 +98,12 @@ AnalysisResult run_analyze(const AnalyzeRequest& request) {
                          : level_for_density(mesh, image.width * image.height, request.density);
     ProgressBar bar;
     options.progress = [&](double done, const char* stage) { bar.update(done, stage); };
-    const AnalysisResult r = analyze_image(image, mesh, options);
+    AnalysisResult r;
+    try {
+        r = analyze_image(image, mesh, options);
+    } catch (const Error& e) {
+        throw Error(str(request.image, ": ", e.what()));
+    }
 
     prepare_folder(request.output, request.overwrite, {request.image, request.mesh});
     const fs::path dir(request.output);

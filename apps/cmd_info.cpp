@@ -74,8 +74,10 @@ nlohmann::json twv_info(const std::string& path, int64_t max_pixels) {
         ++domains[d];
     }
     if (frames == 0) {
-        throw Error(str(path, ": no decodable frame",
-                        decoder.damage().empty() ? "" : " (" + decoder.damage() + ")"));
+        // The damage note names the file itself; the message names it once.
+        std::string why = decoder.damage();
+        if (why.starts_with(path + ": ")) why.erase(0, path.size() + 2);
+        throw Error(str(path, ": no decodable frame", why.empty() ? "" : " (" + why + ")"));
     }
     const double seconds = frames / h.fps();
     nlohmann::json j = {

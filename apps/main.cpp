@@ -17,6 +17,8 @@
 
 namespace {
 
+volatile sig_atomic_t stderr_is_terminal = 0;  // read by the signal handler
+
 // SIGINT and SIGTERM: remove what this run wrote (temporaries, committed outputs, folders it
 // made), say so in one line and exit 130 or 143. A second signal during that exits at once.
 extern "C" void on_interrupt(int signal_number) {
@@ -24,13 +26,16 @@ extern "C" void on_interrupt(int signal_number) {
     if (handling) ::_exit(128 + signal_number);
     handling = 1;
     tesswave::remove_run_outputs();
+    // On a terminal the message starts a line of its own (a progress bar may be half drawn).
     static const char message[] = "\ntesswave: interrupted; removed the partial outputs\n";
-    const ssize_t ignored = ::write(2, message, sizeof message - 1);
+    const int skip = stderr_is_terminal ? 0 : 1;
+    const ssize_t ignored = ::write(2, message + skip, sizeof message - 1 - skip);
     (void)ignored;
     ::_exit(128 + signal_number);
 }
 
 void install_interrupt_handlers() {
+    stderr_is_terminal = ::isatty(2) ? 1 : 0;
     struct sigaction action {};
     action.sa_handler = on_interrupt;
     sigemptyset(&action.sa_mask);

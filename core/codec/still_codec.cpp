@@ -391,8 +391,9 @@ Image decompress_image(std::span<const uint8_t> file, const std::string& name,
     // The header is weighed against the whole file; a prefix decodes the first max_bytes.
     const TwiHeader h = read_twi_header(file, name, options.limits);
     if (options.max_bytes < h.header_bytes) {
-        throw Error(str(name, ": ", options.max_bytes, " bytes do not hold the ", h.header_bytes,
-                        "-byte header"));
+        throw Error(str(name, ": ", options.max_bytes,
+                        options.max_bytes == 1 ? " byte does" : " bytes do", " not hold the ",
+                        h.header_bytes, "-byte header"));
     }
     const auto shared = shared_domain(still_shape(h), 0, h.band_norms);
     const CodingDomain& domain = *shared;
