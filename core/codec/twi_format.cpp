@@ -1,7 +1,11 @@
 #include "core/codec/twi_format.h"
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
+#include <span>
+#include <vector>
 
 #include "core/codec/byte_io.h"
 #include "core/math/error.h"
@@ -175,10 +179,79 @@ int64_t twi_bytes_needed(int64_t pixels, int64_t samples, const TwiLimits& limit
                     need(samples, limits.free_samples, limits.samples_per_byte));
 }
 
+namespace {
+
+// Face f is strictly convex at `P`, counterclockwise with a positive area: the rule validate()
+// applies (DESIGN.md 2.1), with its tolerances.
+bool convex_face(const Mesh& mesh, std::span<const Vec2> P, int f) {
+    const double diag = std::hypot(mesh.width, mesh.height);
+    if (face_signed_area(mesh, P, f) <= 1e-12 * diag * diag) return false;
+    const auto corners = mesh.face(f);
+    const size_t n = corners.size();
+    for (size_t i = 0; i < n; ++i) {
+        const Vec2 a = P[corners[i]] - P[corners[(i + n - 1) % n]];
+        const Vec2 b = P[corners[(i + 1) % n]] - P[corners[i]];
+        if (cross(a, b) <= 1e-10 * norm(a) * norm(b)) return false;
+    }
+    return true;
+}
+
+}  // namespace
+
 void round_mesh_vertices(Mesh& mesh) {
-    for (Vec2& p : mesh.vertices) {
-        p = {std::round(p.x * kVertexUnit) / kVertexUnit,
-             std::round(p.y * kVertexUnit) / kVertexUnit};
+    const std::vector<Vec2> exact = mesh.vertices;
+    const auto round = [](double v) { return std::round(v * kVertexUnit) / kVertexUnit; };
+    for (Vec2& p : mesh.vertices) p = {round(p.x), round(p.y)};
+    // Rounding can push a corner that is nearly straight (Voronoi cells have many) past 180
+    // degrees. The vertex of such a corner then takes the lattice point nearest its exact position,
+    // within 3 units of its rounded one, at which every face around it is convex; a vertex on the
+    // domain's border moves along it. Vertices that find none stay rounded (validation names them).
+    std::vector<std::vector<int>> faces_of(mesh.vertices.size());
+    for (int f = 0; f < mesh.num_faces(); ++f) {
+        for (int32_t v : mesh.face(f)) faces_of[v].push_back(f);
+    }
+    const auto all_convex = [&](int32_t v) {
+        for (int f : faces_of[v]) {
+            if (!convex_face(mesh, mesh.vertices, f)) return false;
+        }
+        return true;
+    };
+    constexpr int kReach = 3;
+    std::vector<std::array<int, 2>> steps;
+    for (int dy = -kReach; dy <= kReach; ++dy) {
+        for (int dx = -kReach; dx <= kReach; ++dx) {
+            if (dx != 0 || dy != 0) steps.push_back({dx, dy});
+        }
+    }
+    for (int pass = 0; pass < 4; ++pass) {
+        bool moved = false;
+        for (int f = 0; f < mesh.num_faces(); ++f) {
+            if (convex_face(mesh, mesh.vertices, f)) continue;
+            for (int32_t v : mesh.face(f)) {
+                if (all_convex(v)) continue;
+                const Vec2 rounded = mesh.vertices[v];
+                const bool fixed_x = exact[v].x == 0 || exact[v].x == mesh.width;
+                const bool fixed_y = exact[v].y == 0 || exact[v].y == mesh.height;
+                std::vector<Vec2> candidates;
+                for (const auto& [dx, dy] : steps) {
+                    if ((fixed_x && dx != 0) || (fixed_y && dy != 0)) continue;
+                    const Vec2 c{rounded.x + dx / kVertexUnit, rounded.y + dy / kVertexUnit};
+                    if (c.x < 0 || c.x > mesh.width || c.y < 0 || c.y > mesh.height) continue;
+                    candidates.push_back(c);
+                }
+                std::stable_sort(candidates.begin(), candidates.end(),
+                                 [&](const Vec2& a, const Vec2& b) {
+                                     return norm(a - exact[v]) < norm(b - exact[v]);
+                                 });
+                for (const Vec2& c : candidates) {
+                    mesh.vertices[v] = c;
+                    if (all_convex(v)) break;
+                    mesh.vertices[v] = rounded;
+                }
+                moved |= mesh.vertices[v] != rounded;
+            }
+        }
+        if (!moved) break;
     }
 }
 
