@@ -159,124 +159,240 @@ void add_smoothness(NormalMatrix& A, float weight) {
     }
 }
 
-// y_c = A x_c for the channels c in `active`, the quads shared among the cores: per quad, its grid
-// of each channel's x gathered into a padded buffer, the stencil applied row by row (entry-major,
-// so the rows vectorize; each stencil row is read once for all channels). A node the quad owns
-// gets y = alpha u x + its product at once; a shared node's product waits in `products`, and is
-// added afterwards in quad order, so that every sum is made in the same order whatever the thread
-// count.
-void multiply(const NormalMatrix& A, const SharedNodes& s, const Planes& x, Planes& y,
-              const std::vector<int>& active, std::vector<float>& products) {
-    const int32_t side = A.side, P = side + 2,
-                  padded = P * P;  // a zero border: no read needs a test
+// o[c] = sum over the nine entries e of st[e][c] g[c + offset[e]], c < n, each sum made in entry
+// order. Compiled twice, for AVX2 and for the baseline x86-64, and picked at load time: the
+// vectorized rows run 8 lanes wide where the machine has them. Both versions do the same float
+// multiplications and additions in the same order (no fused multiply-add), so the results are the
+// same to the bit on any machine.
+[[gnu::target_clones("avx2", "default")]] void stencil_row(const float* const* st, const float* g,
+                                                           const int32_t* offset, int32_t n,
+                                                           float* __restrict o) {
+    const float* __restrict s0 = st[0];
+    const float* __restrict s1 = st[1];
+    const float* __restrict s2 = st[2];
+    const float* __restrict s3 = st[3];
+    const float* __restrict s4 = st[4];
+    const float* __restrict s5 = st[5];
+    const float* __restrict s6 = st[6];
+    const float* __restrict s7 = st[7];
+    const float* __restrict s8 = st[8];
+    const float* __restrict g0 = g + offset[0];
+    const float* __restrict g1 = g + offset[1];
+    const float* __restrict g2 = g + offset[2];
+    const float* __restrict g3 = g + offset[3];
+    const float* __restrict g4 = g + offset[4];
+    const float* __restrict g5 = g + offset[5];
+    const float* __restrict g6 = g + offset[6];
+    const float* __restrict g7 = g + offset[7];
+    const float* __restrict g8 = g + offset[8];
+    for (int32_t c = 0; c < n; ++c) {
+        float sum = 0.0f;
+        sum += s0[c] * g0[c];
+        sum += s1[c] * g1[c];
+        sum += s2[c] * g2[c];
+        sum += s3[c] * g3[c];
+        sum += s4[c] * g4[c];
+        sum += s5[c] * g5[c];
+        sum += s6[c] * g6[c];
+        sum += s7[c] * g7[c];
+        sum += s8[c] * g8[c];
+        o[c] = sum;
+    }
+}
+
+// The solver's vectors, per channel, live in the quads' grids: quad q's (side + 2)^2 values, row
+// by row, with a zero border, so that the stencil reads a node's neighbours at fixed offsets and
+// no value is fetched through its sample id. A sample on the border of several quads has a copy
+// in each, and every copy holds the same value (each is updated by the same arithmetic on the same
+// values). Dot products count a sample once, at its first copy.
+struct LocalGrids {
+    int32_t side = 0, P = 0, padded = 0;
+    size_t quads = 0, size = 0;
+    std::vector<float> owner;  // 1 at each sample's first copy, else 0 (the border too)
+    // The shared samples, each with [offsets[i], offsets[i + 1]) of `copy` and `stashed`: its
+    // copies' local indices, in quad order, and where each copy's product waits (SharedNodes').
+    std::vector<int32_t> offsets, copy, stashed;
+
+    size_t index(size_t q, int32_t k) const {
+        return q * padded + static_cast<size_t>((k / side + 1) * P + k % side + 1);
+    }
+};
+
+LocalGrids make_local(const NormalMatrix& A, const SharedNodes& s, size_t samples) {
+    LocalGrids g;
+    g.side = A.side;
+    g.P = A.side + 2;
+    g.padded = g.P * g.P;
+    g.quads = A.quads;
+    g.size = A.quads * g.padded;
+    g.owner.assign(g.size, 0.0f);
+    std::vector<uint8_t> seen(samples, 0);
+    for (size_t q = 0; q < A.quads; ++q) {
+        for (int32_t k = 0; k < A.grid_size; ++k) {
+            const int32_t id = A.grid[q * A.grid_size + k];
+            if (!seen[id]) seen[id] = 1, g.owner[g.index(q, k)] = 1.0f;
+        }
+    }
+    // The shared copies grouped by sample (groups in the order of their first copy), each group in
+    // quad order: a stable counting sort of the stash entries.
+    std::vector<int32_t> group(samples, -1), count;
+    std::vector<int32_t> entry_group(s.k.size());
+    for (size_t q = 0; q < A.quads; ++q) {
+        for (int32_t i = s.offsets[q]; i < s.offsets[q + 1]; ++i) {
+            const int32_t id = A.grid[q * A.grid_size + s.k[i]];
+            if (group[id] < 0) {
+                group[id] = static_cast<int32_t>(count.size());
+                count.push_back(0);
+            }
+            entry_group[i] = group[id];
+            ++count[group[id]];
+        }
+    }
+    g.offsets.assign(count.size() + 1, 0);
+    for (size_t i = 0; i < count.size(); ++i) g.offsets[i + 1] = g.offsets[i] + count[i];
+    g.copy.resize(s.k.size());
+    g.stashed.resize(s.k.size());
+    std::vector<int32_t> next(g.offsets.begin(), g.offsets.end() - 1);
+    for (size_t q = 0; q < A.quads; ++q) {
+        for (int32_t i = s.offsets[q]; i < s.offsets[q + 1]; ++i) {
+            const int32_t at = next[entry_group[i]]++;
+            g.copy[at] = static_cast<int32_t>(g.index(q, s.k[i]));
+            g.stashed[at] = i;
+        }
+    }
+    return g;
+}
+
+// The local copies of a plane of samples, and back (from each sample's first copy).
+void to_local(const NormalMatrix& A, const LocalGrids& g, const std::vector<float>& plane,
+              std::vector<float>& local) {
+    local.assign(g.size, 0.0f);
+    parallel_for(static_cast<int64_t>(A.quads), [&](int64_t begin, int64_t end) {
+        for (auto q = static_cast<size_t>(begin); q < static_cast<size_t>(end); ++q) {
+            const int32_t* ids = A.grid + q * A.grid_size;
+            for (int32_t k = 0; k < A.grid_size; ++k) local[g.index(q, k)] = plane[ids[k]];
+        }
+    });
+}
+
+void from_local(const NormalMatrix& A, const LocalGrids& g, const std::vector<float>& local,
+                std::vector<float>& plane) {
+    for (size_t q = 0; q < A.quads; ++q) {
+        const int32_t* ids = A.grid + q * A.grid_size;
+        for (int32_t k = 0; k < A.grid_size; ++k) {
+            const size_t i = g.index(q, k);
+            if (g.owner[i] != 0) plane[ids[k]] = local[i];
+        }
+    }
+}
+
+// y_c = A x_c for the channels c in `active`, on the local grids, the quads shared among the cores:
+// per quad, the stencil applied row by row (entry-major, so the rows vectorize). An unshared node
+// gets y = alpha u x + its product at once; a shared node's product waits in `products`, and its
+// copies then get alpha u x plus the products of all its quads, added in quad order, so that every
+// sum is made in the same order whatever the thread count.
+void multiply(const NormalMatrix& A, const SharedNodes& s, const LocalGrids& g, const Planes& x,
+              Planes& y, const std::vector<int>& active, std::vector<float>& products) {
+    const int32_t side = g.side, P = g.P;
     const size_t n = active.size(), shared = s.k.size();
     products.resize(n * shared);
     const float alpha = static_cast<float>(A.alpha);
     const int32_t offset[9] = {-P - 1, -P, -P + 1, -1, 0, 1, P - 1, P, P + 1};
     parallel_for(static_cast<int64_t>(A.quads), [&](int64_t begin, int64_t end) {
-        std::vector<float> local(n * padded, 0.0f), out(n * side);
         for (auto q = static_cast<size_t>(begin); q < static_cast<size_t>(end); ++q) {
-            const int32_t* ids = A.grid + q * A.grid_size;
-            const uint8_t* is_shared = s.shared.data() + q * A.grid_size;
             for (size_t a = 0; a < n; ++a) {
-                const float* __restrict xc = x[active[a]].data();
+                const float* xq = x[active[a]].data() + q * g.padded;
+                float* yq = y[active[a]].data() + q * g.padded;
                 for (int32_t r = 0; r < side; ++r) {
-                    float* g = local.data() + a * padded + (r + 1) * P + 1;
-                    const int32_t* row_ids = ids + r * side;
-                    for (int32_t c = 0; c < side; ++c) g[c] = xc[row_ids[c]];
+                    const float* st[9];
+                    for (int e = 0; e < 9; ++e) st[e] = A.entry(q, e) + r * side;
+                    stencil_row(st, xq + (r + 1) * P + 1, offset, side, yq + (r + 1) * P + 1);
                 }
-            }
-            int32_t next_shared = s.offsets[q];
-            for (int32_t r = 0; r < side; ++r) {
-                const float* st[9];
-                for (int e = 0; e < 9; ++e) st[e] = A.entry(q, e) + r * side;
-                for (size_t a = 0; a < n; ++a) {
-                    // The nine products summed in a register, in entry order.
-                    const float* __restrict g = local.data() + a * padded + (r + 1) * P + 1;
-                    float* __restrict o = out.data() + a * side;
-                    for (int32_t c = 0; c < side; ++c) {
-                        float sum = 0.0f;
-                        sum += st[0][c] * g[c + offset[0]];
-                        sum += st[1][c] * g[c + offset[1]];
-                        sum += st[2][c] * g[c + offset[2]];
-                        sum += st[3][c] * g[c + offset[3]];
-                        sum += st[4][c] * g[c + offset[4]];
-                        sum += st[5][c] * g[c + offset[5]];
-                        sum += st[6][c] * g[c + offset[6]];
-                        sum += st[7][c] * g[c + offset[7]];
-                        sum += st[8][c] * g[c + offset[8]];
-                        o[c] = sum;
-                    }
+                float* stash = products.data() + a * shared;
+                for (int32_t i = s.offsets[q]; i < s.offsets[q + 1]; ++i) {
+                    stash[i] = yq[g.index(0, s.k[i])];
                 }
-                const int32_t* row_ids = ids + r * side;
-                const uint8_t* row_shared = is_shared + r * side;
-                for (size_t a = 0; a < n; ++a) {
-                    const float* __restrict xc = x[active[a]].data();
-                    float* __restrict yc = y[active[a]].data();
-                    const float* o = out.data() + a * side;
-                    float* stash = products.data() + a * shared;
-                    int32_t next = next_shared;
-                    for (int32_t c = 0; c < side; ++c) {
-                        if (row_shared[c]) {
-                            stash[next++] = o[c];
-                        } else {
-                            yc[row_ids[c]] = alpha * xc[row_ids[c]] + o[c];
-                        }
-                    }
-                    if (a + 1 == n) next_shared = next;
+                for (int32_t r = 0; r < side; ++r) {
+                    const float* __restrict xr = xq + (r + 1) * P + 1;
+                    float* __restrict yr = yq + (r + 1) * P + 1;
+                    for (int32_t c = 0; c < side; ++c) yr[c] = alpha * xr[c] + yr[c];
                 }
             }
         }
     });
-    parallel_for(static_cast<int64_t>(n), [&](int64_t begin, int64_t end) {
-        for (auto a = static_cast<size_t>(begin); a < static_cast<size_t>(end); ++a) {
-            const float* __restrict xc = x[active[a]].data();
-            float* __restrict yc = y[active[a]].data();
-            for (size_t q = 0; q < A.quads; ++q) {
-                const int32_t* ids = A.grid + q * A.grid_size;
-                for (int32_t i = s.offsets[q]; i < s.offsets[q + 1]; ++i)
-                    yc[ids[s.k[i]]] = alpha * xc[ids[s.k[i]]];
+    const auto groups = static_cast<int64_t>(g.offsets.size()) - 1;
+    parallel_for(
+        groups,
+        [&](int64_t begin, int64_t end) {
+            for (size_t a = 0; a < n; ++a) {
+                const float* xc = x[active[a]].data();
+                float* yc = y[active[a]].data();
+                const float* stash = products.data() + a * shared;
+                for (int64_t i = begin; i < end; ++i) {
+                    float total = alpha * xc[g.copy[g.offsets[i]]];
+                    for (int32_t j = g.offsets[i]; j < g.offsets[i + 1]; ++j)
+                        total += stash[g.stashed[j]];
+                    for (int32_t j = g.offsets[i]; j < g.offsets[i + 1]; ++j) yc[g.copy[j]] = total;
+                }
             }
-            add_stashed(A, s, products.data() + a * shared, yc);
-        }
-    });
+        },
+        1024);
 }
 
 // The reductions below keep four partial sums (k mod 4), so that a loop is not bound by the
-// latency of one double accumulator; the order, and so the result, is fixed.
-double dot(const std::vector<float>& a, const std::vector<float>& b) {
+// latency of one double accumulator; the order, and so the result, is fixed. `owner` counts each
+// sample once. Like stencil_row, each is compiled for AVX2 and the baseline, with the same
+// arithmetic in the same order (the four sums are the four lanes of a vector).
+[[gnu::target_clones("avx2", "default")]] double dot(const float* __restrict a,
+                                                     const float* __restrict b,
+                                                     const float* __restrict owner, size_t n) {
     double sum[4] = {0, 0, 0, 0};
-    const size_t n = a.size(), whole = n - n % 4;
+    const size_t whole = n - n % 4;
     for (size_t k = 0; k < whole; k += 4) {
-        for (int i = 0; i < 4; ++i) sum[i] += static_cast<double>(a[k + i]) * b[k + i];
+        for (int i = 0; i < 4; ++i)
+            sum[i] += static_cast<double>(a[k + i] * owner[k + i]) * b[k + i];
     }
-    for (size_t k = whole; k < n; ++k) sum[k % 4] += static_cast<double>(a[k]) * b[k];
+    for (size_t k = whole; k < n; ++k) sum[k % 4] += static_cast<double>(a[k] * owner[k]) * b[k];
     return (sum[0] + sum[1]) + (sum[2] + sum[3]);
 }
 
-// One conjugate-gradient step of a channel: x += step p, r -= step Ap; returns r.z (z = r / d)
-// and r.r.
-std::pair<double, double> step_channel(float step, float* __restrict x, float* __restrict r,
-                                       const float* __restrict p, const float* __restrict ap,
-                                       const float* __restrict inverse, size_t n) {
+double dot(const std::vector<float>& a, const std::vector<float>& b,
+           const std::vector<float>& owner) {
+    return dot(a.data(), b.data(), owner.data(), a.size());
+}
+
+// One conjugate-gradient step of a channel, in one pass: x += step p, r -= step Ap; returns r.z
+// (z = r / d) and r.r.
+[[gnu::target_clones("avx2", "default")]] std::pair<double, double> step_channel(
+    float step, float* __restrict x, float* __restrict r, const float* __restrict p,
+    const float* __restrict ap, const float* __restrict inverse, const float* __restrict owner,
+    size_t n) {
     double rz[4] = {0, 0, 0, 0}, rr[4] = {0, 0, 0, 0};
-    for (size_t k = 0; k < n; ++k) {
-        x[k] += step * p[k];
-        r[k] -= step * ap[k];
-    }
     const size_t whole = n - n % 4;
     for (size_t k = 0; k < whole; k += 4) {
         for (int i = 0; i < 4; ++i) {
-            const double v = r[k + i];
+            x[k + i] += step * p[k + i];
+            r[k + i] -= step * ap[k + i];
+            const double v = r[k + i] * owner[k + i];
             rz[i] += v * (r[k + i] * inverse[k + i]);
-            rr[i] += v * v;
+            rr[i] += v * r[k + i];
         }
     }
     for (size_t k = whole; k < n; ++k) {
-        rz[k % 4] += double{r[k]} * (r[k] * inverse[k]);
-        rr[k % 4] += double{r[k]} * r[k];
+        x[k] += step * p[k];
+        r[k] -= step * ap[k];
+        const double v = r[k] * owner[k];
+        rz[k % 4] += v * (r[k] * inverse[k]);
+        rr[k % 4] += v * r[k];
     }
     return {(rz[0] + rz[1]) + (rz[2] + rz[3]), (rr[0] + rr[1]) + (rr[2] + rr[3])};
+}
+
+// The next search direction: p = r / d + beta p.
+[[gnu::target_clones("avx2", "default")]] void next_direction(float beta, const float* __restrict r,
+                                                              const float* __restrict inverse,
+                                                              float* __restrict p, size_t n) {
+    for (size_t k = 0; k < n; ++k) p[k] = r[k] * inverse[k] + beta * p[k];
 }
 
 void check_options(const ProjectOptions& o) {
@@ -337,12 +453,15 @@ class Solver {
         shared_ = find_shared(A_, samples_);
         unit_ = static_cast<double>(image.width) * image.height / samples_;
         A_.alpha = o.anchor_weight * unit_;
-        b_.assign(channels_, std::vector<float>(samples_, 0.0f));
-        add_data_term(plan, image, shared_, A_, b_);
+        Planes b(channels_, std::vector<float>(samples_, 0.0f));
+        add_data_term(plan, image, shared_, A_, b);
         for (int c = 0; c < channels_; ++c) {
             for (size_t k = 0; k < samples_; ++k)
-                b_[c][k] += static_cast<float>(A_.alpha) * anchor_[c][k];
+                b[c][k] += static_cast<float>(A_.alpha) * anchor_[c][k];
         }
+        local_ = make_local(A_, shared_, samples_);
+        b_.resize(channels_);
+        for (int c = 0; c < channels_; ++c) to_local(A_, local_, b[c], b_[c]);
     }
 
     // The starting samples: the anchor.
@@ -371,11 +490,13 @@ class Solver {
     ProjectOptions o_;
     int channels_ = 0;
     size_t samples_ = 0;
-    Planes anchor_, b_;
+    Planes anchor_;
+    Planes b_;  // the right-hand side, on the local grids
     RenderPlan own_plan_;
     const RenderPlan* plan_ = nullptr;  // own_plan_ or the caller's
     NormalMatrix A_;
     SharedNodes shared_;
+    LocalGrids local_;
     double unit_ = 0;
     double smoothness_ = 0;  // what the stencils hold
 };
@@ -397,53 +518,60 @@ void Solver::solve(double smoothness, Projection& result) {
         }
     }
     const int channels = channels_;
-    const size_t samples = samples_;
+    const LocalGrids& g = local_;
+    const size_t size = g.size;
     const Planes& b = b_;
+    const std::vector<float>& owner = g.owner;
 
-    // Preconditioned conjugate gradients, all channels through one pass over the stencils. The
-    // preconditioned residual z = r / diagonal is never stored: r.z and p = z + beta p read r.
-    std::vector<float> inverse(samples);
-    for (size_t k = 0; k < samples; ++k) inverse[k] = static_cast<float>(1.0 / A_.diagonal[k]);
-    Planes& x = result.planes;
-    Planes r(channels, std::vector<float>(samples)), p = r, Ap = r;
+    // Preconditioned conjugate gradients on the local grids, all channels through one pass over
+    // the stencils. The preconditioned residual z = r / diagonal is never stored: r.z and
+    // p = z + beta p read r.
+    std::vector<float> inverse(size, 0.0f);  // 0 on the grids' borders, which stay 0
+    for (size_t q = 0; q < A_.quads; ++q) {
+        for (int32_t k = 0; k < A_.grid_size; ++k) {
+            inverse[g.index(q, k)] =
+                static_cast<float>(1.0 / A_.diagonal[A_.grid[q * A_.grid_size + k]]);
+        }
+    }
+    Planes x(channels), r(channels, std::vector<float>(size, 0.0f)), p = r, Ap = r;
+    for (int c = 0; c < channels; ++c) to_local(A_, g, result.planes[c], x[c]);
     std::vector<int> all(channels);
     for (int c = 0; c < channels; ++c) all[c] = c;
     std::vector<float> products;
-    multiply(A_, shared_, x, Ap, all, products);
+    multiply(A_, shared_, g, x, Ap, all, products);
     std::vector<double> rz(channels), norm_b(channels);
     std::vector<int> active;
     for (int c = 0; c < channels; ++c) {
-        double rr = 0;
-        for (size_t k = 0; k < samples; ++k) {
+        for (size_t k = 0; k < size; ++k) {
             r[c][k] = b[c][k] - Ap[c][k];
             p[c][k] = r[c][k] * inverse[k];
-            rz[c] += double{r[c][k]} * p[c][k];
-            rr += double{r[c][k]} * r[c][k];
         }
-        norm_b[c] = std::sqrt(dot(b[c], b[c]));
+        rz[c] = dot(r[c], p[c], owner);
+        const double rr = dot(r[c], r[c], owner);
+        norm_b[c] = std::sqrt(dot(b[c], b[c], owner));
         const double relative = norm_b[c] > 0 ? std::sqrt(rr) / norm_b[c] : 0.0;
         result.residual = std::max(result.residual, relative);
         if (relative > o_.tolerance) active.push_back(c);
     }
     while (!active.empty() && result.iterations < o_.max_iterations) {
         ++result.iterations;
-        multiply(A_, shared_, p, Ap, active, products);
+        multiply(A_, shared_, g, p, Ap, active, products);
         // Each channel's step on its own (the channels shared among the cores).
         const size_t n = active.size();
         std::vector<double> relative(n, -1.0);
         parallel_for(static_cast<int64_t>(n), [&](int64_t begin, int64_t end) {
             for (auto a = static_cast<size_t>(begin); a < static_cast<size_t>(end); ++a) {
                 const int c = active[a];
-                const double pAp = dot(p[c], Ap[c]);
+                const double pAp = dot(p[c], Ap[c], owner);
                 if (!(pAp > 0)) continue;  // converged to rounding
                 const float step = static_cast<float>(rz[c] / pAp);
                 float* __restrict rc = r[c].data();
                 float* __restrict pc = p[c].data();
-                const auto [rz_next, rr] =
-                    step_channel(step, x[c].data(), rc, pc, Ap[c].data(), inverse.data(), samples);
+                const auto [rz_next, rr] = step_channel(step, x[c].data(), rc, pc, Ap[c].data(),
+                                                        inverse.data(), owner.data(), size);
                 const float beta = static_cast<float>(rz_next / rz[c]);
                 rz[c] = rz_next;
-                for (size_t k = 0; k < samples; ++k) pc[k] = rc[k] * inverse[k] + beta * pc[k];
+                next_direction(beta, rc, inverse.data(), pc, size);
                 relative[a] = std::sqrt(rr) / norm_b[c];
             }
         });
@@ -456,6 +584,7 @@ void Solver::solve(double smoothness, Projection& result) {
         }
         active = std::move(still);
     }
+    for (int c = 0; c < channels; ++c) from_local(A_, g, x[c], result.planes[c]);
 }
 
 }  // namespace
