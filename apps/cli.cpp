@@ -82,9 +82,9 @@ void prepare_folder(const std::string& dir, bool overwrite,
     create_folders(dir);
 }
 
-Image read_input(const std::string& path) {
+Image read_input(const std::string& path, const ImageLimits& limits) {
     ImageNotes notes;
-    Image image = read_image(path, {}, &notes);
+    Image image = read_image(path, limits, &notes);
     if (notes.non_finite > 0) {
         warn(str("warning: ", path, ": ", notes.non_finite,
                  " values are NaN or infinite; they are read as 0"));

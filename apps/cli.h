@@ -9,6 +9,7 @@
 
 #include "core/codec/twi_format.h"
 #include "core/eval/analysis.h"
+#include "core/io/image_io.h"
 #include "frame_sink.h"
 
 namespace tesswave::cli {
@@ -34,7 +35,7 @@ void prepare_folder(const std::string& dir, bool overwrite,
 
 // An input image, with a one-line warning for what reading dropped: non-finite values (read as
 // 0) and a decoder's complaint about a file it still read (a truncated JPEG).
-Image read_input(const std::string& path);
+Image read_input(const std::string& path, const ImageLimits& limits = {});
 
 // Seconds since t on the steady clock (whole-command and per-stage timings in reports).
 inline double seconds_since(std::chrono::steady_clock::time_point t) {

@@ -58,18 +58,26 @@ void run_compress(CompressArgs a) {
     check_output(a.output, a.overwrite, {a.input});
     choose_lossless_mesh(a);
     const auto start = std::chrono::steady_clock::now();
-    const Image image = read_input(a.input);
     StillOptions o{.transform = parse_grid(a.grid), .lossless = a.lossless};
-    const double pixels = double(image.width) * image.height;
-    if (a.bpp > 0) o.max_bytes = static_cast<int64_t>(std::floor(a.bpp * pixels / 8));
     if (a.psnr > 0) o.target_psnr = a.psnr;
     if (a.bpp <= 0 && a.psnr <= 0 && !a.lossless) o.base_step = step_for_psnr(kDefaultQualityDb);
-    if (!a.mesh.empty()) o.mesh = mesh_for(a.mesh, a.input, image, a.fit_mesh);
     o.aligned = a.aligned;
     o.levels = a.levels;
     o.density = a.density;
     o.sampling = sampling_from_name(a.sampling);
     o.mesh_wavelet = mesh_wavelet_from_name(a.mesh_wavelet);
+    // A size the codec would refuse (a mesh of too many samples) is refused from the file's
+    // header, before its pixels are read; a mesh file is checked once it is read.
+    ImageLimits limits;
+    if (a.mesh.empty()) {
+        limits.check_size = [&o](int width, int height, int channels) {
+            check_still_size(width, height, channels, o);
+        };
+    }
+    const Image image = read_input(a.input, limits);
+    const double pixels = double(image.width) * image.height;
+    if (a.bpp > 0) o.max_bytes = static_cast<int64_t>(std::floor(a.bpp * pixels / 8));
+    if (!a.mesh.empty()) o.mesh = mesh_for(a.mesh, a.input, image, a.fit_mesh);
     ProgressBar bar;
     o.progress = [&bar](double done, const char* stage) { bar.update(done, stage); };
     StillResult r;

@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -103,28 +104,31 @@ TEST(ImageIo, bad_files_are_one_error_naming_the_file) {
 // refused from its header, as is one over the 2^26-pixel limit; a real 8000x8000 one-colour PNG
 // is larger than the 63 KB this asks for. NaN pixels are read as 0 and counted;
 // an image with nothing but NaN is refused.
+// A 16x16 RGB PNG whose header claims w x h pixels (its data still holds 16x16): written to
+// `dir`, its path returned.
+std::string png_claiming(const fs::path& dir, uint32_t w, uint32_t h) {
+    const std::string small = (dir / "small.png").string();
+    write_image(pattern(16, 16, 3, SampleFormat::u8), small);
+    std::ifstream in(small, std::ios::binary);
+    std::vector<uint8_t> out(std::istreambuf_iterator<char>(in), {});
+    if (out.size() <= 33) throw Error("the PNG writer wrote no IHDR");
+    // IHDR: length (4), type (4), width and height (big-endian), ..., CRC over type and data.
+    for (int k = 0; k < 4; ++k) {
+        out[16 + k] = static_cast<uint8_t>(w >> (24 - 8 * k));
+        out[20 + k] = static_cast<uint8_t>(h >> (24 - 8 * k));
+    }
+    const uint32_t crc = crc32(std::span<const uint8_t>(out).subspan(12, 17));
+    for (int k = 0; k < 4; ++k) out[29 + k] = static_cast<uint8_t>(crc >> (24 - 8 * k));
+    const std::string path = (dir / str("claims_", w, "x", h, ".png")).string();
+    std::ofstream(path, std::ios::binary)
+        .write(reinterpret_cast<const char*>(out.data()), static_cast<std::streamsize>(out.size()));
+    return path;
+}
+
 TEST(ImageIo, a_small_file_may_not_declare_a_huge_image) {
     const TempDir dir;
     const std::string small = (dir.path / "small.png").string();
-    write_image(pattern(16, 16, 3, SampleFormat::u8), small);
-    std::ifstream in(small, std::ios::binary);
-    std::vector<uint8_t> png(std::istreambuf_iterator<char>(in), {});
-    ASSERT_GT(png.size(), 33u);
-    // IHDR: length (4), type (4), width and height (big-endian), ..., CRC over type and data.
-    auto claim = [&](uint32_t w, uint32_t h) {
-        std::vector<uint8_t> out = png;
-        for (int k = 0; k < 4; ++k) {
-            out[16 + k] = static_cast<uint8_t>(w >> (24 - 8 * k));
-            out[20 + k] = static_cast<uint8_t>(h >> (24 - 8 * k));
-        }
-        const uint32_t crc = crc32(std::span<const uint8_t>(out).subspan(12, 17));
-        for (int k = 0; k < 4; ++k) out[29 + k] = static_cast<uint8_t>(crc >> (24 - 8 * k));
-        const std::string path = (dir.path / str("claims_", w, "x", h, ".png")).string();
-        std::ofstream(path, std::ios::binary)
-            .write(reinterpret_cast<const char*>(out.data()),
-                   static_cast<std::streamsize>(out.size()));
-        return path;
-    };
+    auto claim = [&](uint32_t w, uint32_t h) { return png_claiming(dir.path, w, h); };
     EXPECT_NE(testing::error_of([&] { read_image(claim(8000, 8000)); }).find("may claim"),
               std::string::npos);
     EXPECT_NE(testing::error_of([&] { read_image(claim(20000, 20000)); }).find("exceeds the limit"),
@@ -154,6 +158,26 @@ TEST(ImageIo, a_small_file_may_not_declare_a_huge_image) {
     write_image(all_nan, all_exr);
     const std::string why = testing::error_of([&] { read_image(all_exr); });
     EXPECT_NE(why.find("all_nan.exr: every value is NaN or infinite"), std::string::npos) << why;
+}
+
+// The caller's own size check (the still codec's: a mesh of too many samples) sees the declared
+// size and channels and refuses before any pixel is decoded: this file's data holds 16x16 pixels
+// for a claim of 2000x2000, so a decode would fail with another message.
+TEST(ImageIo, the_callers_size_check_runs_before_the_pixels_are_decoded) {
+    const TempDir dir;
+    const std::string claimed = png_claiming(dir.path, 2000, 2000);
+    std::array<int, 3> seen{};
+    ImageLimits limits;
+    limits.check_size = [&](int width, int height, int channels) {
+        seen = {width, height, channels};
+        throw Error("too many samples");
+    };
+    EXPECT_EQ(testing::error_of([&] { read_image(claimed, limits); }),
+              claimed + ": too many samples");
+    EXPECT_EQ(seen, (std::array<int, 3>{2000, 2000, 3}));
+    limits.check_size = [](int, int, int) {};
+    EXPECT_NE(testing::error_of([&] { read_image(claimed, limits); }).find("cannot decode"),
+              std::string::npos);
 }
 
 }  // namespace

@@ -12,6 +12,7 @@
 #include "core/math/metrics.h"
 #include "samples/sample_images.h"
 #include "samples/sample_meshes.h"
+#include "test_meshes.h"
 
 namespace tesswave {
 namespace {
@@ -49,7 +50,7 @@ TEST(StillCodec, lossless_grid_53_round_trip_is_bit_exact) {
     for (int channels : {1, 3, 4}) {
         for (auto [w, h] :
              {std::pair{37, 23}, std::pair{64, 48}, std::pair{1, 9}, std::pair{2, 1}}) {
-            SCOPED_TRACE(testing::Message() << channels << " channels, " << w << "x" << h);
+            SCOPED_TRACE(::testing::Message() << channels << " channels, " << w << "x" << h);
             const Image image = scene(w, h, channels);
             const StillResult r =
                 compress_image(image, {.transform = TwiTransform::grid53, .lossless = true});
@@ -64,7 +65,7 @@ TEST(StillCodec, lossless_on_an_aligned_grid_mesh_round_trips_the_image_bit_exac
     for (int channels : {1, 3, 4}) {
         for (auto [w, h] :
              {std::pair{65, 33}, std::pair{33, 49}, std::pair{64, 48}, std::pair{1, 7}}) {
-            SCOPED_TRACE(testing::Message() << channels << " channels, " << w << "x" << h);
+            SCOPED_TRACE(::testing::Message() << channels << " channels, " << w << "x" << h);
             const Image image = scene(w, h, channels);
             const StillResult r = compress_image(image, {.lossless = true, .aligned = true});
             EXPECT_EQ(r.header.placement, MeshPlacement::centres);
@@ -246,6 +247,22 @@ TEST(StillCodec, fixed_grid_53_equals_the_mesh_path_on_a_pixel_aligned_grid_mesh
 
 // The domain cache hands back the domain it holds for an equal shape, probe count and norms,
 // builds a new one for any difference, keeps at most four, and a cached decode equals a fresh one.
+// What compress_image refuses for its size is refused from the size alone (the command checks a
+// file's declared size with it before reading the pixels): an 8192x8192 image's default mesh has
+// more samples than the limit; a side over the limit; J = 11 on a 64x48 image.
+TEST(StillCodec, sizes_are_refused_before_any_pixel) {
+    EXPECT_NE(testing::error_of([] { check_still_size(8192, 8192, 3, {}); }).find("samples"),
+              std::string::npos);
+    EXPECT_NE(testing::error_of([] { check_still_size(70000, 8, 1, {}); }).find("side"),
+              std::string::npos);
+    EXPECT_NO_THROW(check_still_size(8192, 8192, 3, {.transform = TwiTransform::grid97}));
+    EXPECT_NO_THROW(check_still_size(640, 480, 4, {}));
+    const StillOptions deep{.levels = 11};
+    const std::string early = testing::error_of([&] { check_still_size(64, 48, 3, deep); });
+    EXPECT_NE(early.find("samples"), std::string::npos) << early;
+    EXPECT_EQ(early, testing::error_of([&] { compress_image(scene(64, 48, 3), deep); }));
+}
+
 TEST(StillCodec, domains_are_cached_by_shape_probes_and_norms) {
     clear_domain_cache();
     const Image image = scene(48, 40, 3);

@@ -23,8 +23,7 @@ void progress(const StillOptions& o, double done, const char* stage) {
 }
 
 // The T0 mesh and J of the mesh path.
-void choose_mesh(const Image& image, const StillOptions& o, TwiHeader& h) {
-    const int W = image.width, H = image.height;
+void choose_mesh(int W, int H, const StillOptions& o, TwiHeader& h) {
     if (o.aligned) {
         h.levels = o.levels > 0 ? o.levels : default_grid(W, H, 1.0).levels;
         h.placement = MeshPlacement::centres;
@@ -56,35 +55,38 @@ void choose_mesh(const Image& image, const StillOptions& o, TwiHeader& h) {
     if (!o.lossless) h.mesh_wavelet = o.mesh_wavelet;
 }
 
-TwiHeader make_header(const Image& image, const StillOptions& o) {
-    if (image.width < 1 || image.height < 1 || image.channels() < 1 || image.channels() > 4) {
-        throw Error(str("cannot code a ", image.width, "x", image.height, " image with ",
-                        image.channels(), " channels"));
+// The header of an image of this size, channel count and sample format (checked against the
+// limits; no pixel is read).
+TwiHeader make_header(int width, int height, int channels, SampleFormat format,
+                      const StillOptions& o) {
+    if (width < 1 || height < 1 || channels < 1 || channels > 4) {
+        throw Error(
+            str("cannot code a ", width, "x", height, " image with ", channels, " channels"));
     }
     TwiHeader h;
     h.transform = o.transform;
     h.lossless = o.lossless;
-    h.channels = image.channels();
-    h.bit_depth = image.format == SampleFormat::u8 ? 8 : 16;
-    h.width = image.width;
-    h.height = image.height;
+    h.channels = channels;
+    h.bit_depth = format == SampleFormat::u8 ? 8 : 16;
+    h.width = width;
+    h.height = height;
     if (h.channels >= 3) h.colour = o.lossless ? TwiColour::ycocg_r : TwiColour::ycbcr;
     if (o.lossless && o.transform == TwiTransform::grid97) {
         throw Error("lossless coding needs the reversible 5/3 (--grid 53) or the mesh");
     }
     // What the decoder's default limits accept, and nothing more.
     const TwiLimits limits;
-    if (image.width > kMaxTwiSide || image.height > kMaxTwiSide) {
-        throw Error(str(image.width, "x", image.height,
-                        ": a side is longer than the .twi limit of ", kMaxTwiSide));
+    if (width > kMaxTwiSide || height > kMaxTwiSide) {
+        throw Error(
+            str(width, "x", height, ": a side is longer than the .twi limit of ", kMaxTwiSide));
     }
-    const int64_t pixels = int64_t{image.width} * image.height;
+    const int64_t pixels = int64_t{width} * height;
     if (pixels > limits.max_pixels) {
-        throw Error(str(image.width, "x", image.height, " pixels exceed the .twi limit of ",
-                        limits.max_pixels));
+        throw Error(
+            str(width, "x", height, " pixels exceed the .twi limit of ", limits.max_pixels));
     }
     if (o.transform == TwiTransform::mesh) {
-        choose_mesh(image, o, h);
+        choose_mesh(width, height, o, h);
         const int64_t samples = sample_count(h.mesh, h.levels);
         if (samples > limits.max_samples ||
             samples > limits.max_samples_per_pixel * static_cast<double>(pixels) + (1 << 20)) {
@@ -140,6 +142,10 @@ double image_psnr(const Image& a, const Image& b, int bit_depth) {
 }
 
 }  // namespace
+
+void check_still_size(int width, int height, int channels, const StillOptions& options) {
+    make_header(width, height, channels, SampleFormat::u8, options);
+}
 
 double step_for_psnr(double psnr) { return std::sqrt(12.0 * std::pow(10.0, -psnr / 10)); }
 
@@ -306,7 +312,7 @@ void require_decodable(const StillResult& r) {
 StillResult compress_image(const Image& image, const StillOptions& o) {
     if (o.max_bytes < 0) throw Error(str("byte budget ", o.max_bytes, " is negative"));
     StillResult result;
-    TwiHeader h = make_header(image, o);
+    TwiHeader h = make_header(image.width, image.height, image.channels(), image.format, o);
     progress(o, 0.0, "preparing");
     const auto shared = o.lossless
                             ? shared_domain(still_shape(h), std::max(o.norm_probes, 1))

@@ -65,6 +65,11 @@ double step_for_psnr(double psnr);
 // Throws Error for images or options the codec cannot take (with the reason).
 StillResult compress_image(const Image& image, const StillOptions& options);
 
+// Throws the Error compress_image would throw for an image of this size and channel count (sides,
+// pixels, mesh samples, channels), so that a file's declared size can be refused before its pixels
+// are read (ImageLimits::check_size).
+void check_still_size(int width, int height, int channels, const StillOptions& options);
+
 struct StillDecodeOptions {
     size_t max_bytes = SIZE_MAX;  // decode only this prefix of the file
     TwiLimits limits = {};

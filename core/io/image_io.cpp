@@ -72,6 +72,13 @@ Image read_image(const std::string& path, const ImageLimits& limits, ImageNotes*
                         " bytes (more than an image file of that size may claim)"));
     }
     const int channels = std::min(spec.nchannels, limits.max_channels);
+    if (limits.check_size) {
+        try {
+            limits.check_size(spec.width, spec.height, channels);
+        } catch (const Error& e) {
+            throw Error(str(path, ": ", e.what()));
+        }
+    }
     const SampleFormat format = spec.format == OIIO::TypeDesc::UINT8            ? SampleFormat::u8
                                 : spec.format == OIIO::TypeDesc::UINT16         ? SampleFormat::u16
                                 : spec.format.basetype == OIIO::TypeDesc::UINT8 ? SampleFormat::u8

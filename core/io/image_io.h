@@ -1,6 +1,7 @@
 // Image files through OpenImageIO (PNG, JPEG, TIFF, EXR, PNM, ... by extension).
 #pragma once
 
+#include <functional>
 #include <string>
 
 #include "core/math/image.h"
@@ -17,6 +18,9 @@ struct ImageLimits {
     int64_t free_pixels = int64_t{1} << 22;
     int64_t pixels_per_byte = 1024;
     int max_channels = 4;  // extra channels beyond 4 are dropped
+    // The caller's own check of the declared size and channel count (beyond max_channels
+    // dropped), run before any pixel is decoded; the Error it throws gets the path in front.
+    std::function<void(int width, int height, int channels)> check_size = {};
 };
 
 // What reading found that the caller may want to warn about.
