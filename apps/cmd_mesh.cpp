@@ -174,8 +174,9 @@ void add_validate(CLI::App& mesh_cmd) {
                 }
                 std::fprintf(stderr, "tesswave: %s: %zu problem%s%s\n", args->path.c_str(),
                              report.problems.size(), report.problems.size() == 1 ? "" : "s",
-                             report.stopped ? " shown; the checks stopped there, there may be more"
-                                            : " in all");
+                             report.stopped
+                                 ? " shown; there are more (the checks stopped at the next)"
+                                 : " in all");
             }
             throw CLI::RuntimeError(1);
         }

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -160,6 +161,18 @@ TEST(Validate, require_valid_names_the_file_and_first_problem) {
         FAIL();
     } catch (const Error& e) {
         EXPECT_EQ(std::string(e.what()).rfind("M.json: vertex 4:", 0), 0u) << e.what();
+    }
+}
+
+// The report keeps max_problems problems and says whether there are more: exactly 20 bad
+// features are 20 problems "in all"; a 21st makes the report stop and say there are more.
+TEST(Validate, stops_only_when_there_are_more_problems_than_it_keeps) {
+    for (const int bad : {19, 20, 21, 40}) {
+        Mesh mesh = grid_mesh(400, 300, 20, 15);
+        for (int k = 0; k < bad; ++k) mesh.features.push_back({k, k + 42});  // not edges
+        const ValidationReport report = validate(mesh);
+        EXPECT_EQ(report.problems.size(), static_cast<size_t>(std::min(bad, 20))) << bad;
+        EXPECT_EQ(report.stopped, bad > 20) << bad;
     }
 }
 

@@ -14,11 +14,15 @@ namespace {
 class Collector {
   public:
     explicit Collector(size_t limit) : limit_(limit) {}
+    // A problem beyond the limit is not kept: it says there are more, and the checks stop.
     void add(std::string problem) {
-        if (report_.problems.size() < limit_) report_.problems.push_back(std::move(problem));
-        report_.stopped = report_.problems.size() >= limit_;
+        if (report_.problems.size() < limit_) {
+            report_.problems.push_back(std::move(problem));
+        } else {
+            report_.stopped = true;
+        }
     }
-    bool full() const { return report_.problems.size() >= limit_; }
+    bool full() const { return report_.stopped; }
     bool any() const { return !report_.problems.empty(); }
     ValidationReport take() { return std::move(report_); }
 

@@ -16,7 +16,7 @@ constexpr double kMaxDomain = 1e8;
 
 struct ValidationReport {
     std::vector<std::string> problems;  // one line each, e.g. "face 3: not convex at corner 2 ..."
-    bool stopped = false;  // max_problems were found and the checks stopped: there may be more
+    bool stopped = false;  // more than max_problems were found; the checks stopped at the next
     bool ok() const { return problems.empty(); }
 };
 
