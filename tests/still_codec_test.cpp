@@ -10,6 +10,7 @@
 #include "core/math/grid_mesh.h"
 #include "core/math/hierarchy.h"
 #include "core/math/metrics.h"
+#include "core/math/parallel.h"
 #include "samples/sample_images.h"
 #include "samples/sample_meshes.h"
 #include "test_meshes.h"
@@ -261,6 +262,26 @@ TEST(StillCodec, sizes_are_refused_before_any_pixel) {
     const std::string early = testing::error_of([&] { check_still_size(64, 48, 3, deep); });
     EXPECT_NE(early.find("samples"), std::string::npos) << early;
     EXPECT_EQ(early, testing::error_of([&] { compress_image(scene(64, 48, 3), deep); }));
+}
+
+// The candidates (point samples and projections) are coded on threads of their own while the
+// next projection runs: the file is the same to the byte on any thread count, at a size and at a
+// quality target.
+TEST(StillCodec, the_same_file_whatever_the_thread_count) {
+    const Image image = scene(96, 80, 3);
+    for (const StillOptions& o :
+         {StillOptions{.max_bytes = 960}, StillOptions{.target_psnr = 30}}) {
+        set_thread_count(1);
+        const StillResult one = compress_image(image, o);
+        EXPECT_NE(one.sampling, "point");  // a projection won: more than one candidate was coded
+        for (const int threads : {2, 3}) {
+            set_thread_count(threads);
+            const StillResult many = compress_image(image, o);
+            EXPECT_EQ(many.file, one.file) << threads << " threads";
+            EXPECT_EQ(many.sampling, one.sampling) << threads << " threads";
+        }
+    }
+    set_thread_count(0);
 }
 
 TEST(StillCodec, domains_are_cached_by_shape_probes_and_norms) {
