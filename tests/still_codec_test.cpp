@@ -264,9 +264,9 @@ TEST(StillCodec, sizes_are_refused_before_any_pixel) {
     EXPECT_EQ(early, testing::error_of([&] { compress_image(scene(64, 48, 3), deep); }));
 }
 
-// The candidates (point samples and projections) are coded on threads of their own while the
-// next projection runs: the file is the same to the byte on any thread count, at a size and at a
-// quality target.
+// The file is the same to the byte on any thread count (the projections, the transform, the
+// rendering and the candidates' measurements share their work among the threads), at a size and
+// at a quality target.
 TEST(StillCodec, the_same_file_whatever_the_thread_count) {
     const Image image = scene(96, 80, 3);
     for (const StillOptions& o :

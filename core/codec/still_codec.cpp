@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <bit>
 #include <cmath>
-#include <future>
 #include <limits>
 #include <numeric>
 
@@ -12,7 +11,6 @@
 #include "core/math/error.h"
 #include "core/math/grid_mesh.h"
 #include "core/math/metrics.h"
-#include "core/math/parallel.h"
 #include "core/math/sampling.h"
 #include "core/math/strings.h"
 #include "core/math/validate.h"
@@ -355,41 +353,29 @@ StillResult compress_image(const Image& image, const StillOptions& o) {
                 choices.push_back({Sampling::fit, fit.smoothness});
         }
     }
+    std::vector<Coded> coded;
     const auto part = [&](size_t k) {
         return progress_range(o.progress, 0.05 + 0.85 * k / choices.size(),
                               0.05 + 0.85 * (k + 1) / choices.size());
     };
-    // Each candidate is quantized and coded (rate control and PSNR included) while the next
-    // projection runs: on a thread of its own when more than one is allowed, else on this one at
-    // the end. The codings are independent of each other and of the timing, so the file is the
-    // same either way.
-    const bool measure = o.measure || choices.size() > 1;
-    const auto launch = thread_count() > 1 ? std::launch::async : std::launch::deferred;
-    std::vector<std::future<Coded>> pending;
-    const auto code_choice = [&](Planes x) {
-        pending.push_back(std::async(launch, [&, x = std::move(x)] {
-            IntPlanes q(h.channels, std::vector<int32_t>(layout.size, 0));
-            for (int c = 0; c < h.channels; ++c) {
-                quantize(layout, x[c], domain.band_steps(c, h.base_step), q[c]);
-            }
-            return code(domain, h, q, image, o, measure);
-        }));
+    const auto code_choice = [&](size_t k, const Planes& x) {
+        IntPlanes q(h.channels, std::vector<int32_t>(layout.size, 0));
+        for (int c = 0; c < h.channels; ++c) {
+            quantize(layout, x[c], domain.band_steps(c, h.base_step), q[c]);
+        }
+        report(part(k), 0.4, "coding");
+        coded.push_back(code(domain, h, q, image, o, o.measure || choices.size() > 1));
     };
     report(part(0), 0.0, "sampling");
-    code_choice(domain.analyze(image, Sampling::point));
+    code_choice(0, domain.analyze(image, Sampling::point));
     // The projections, one after the other from one assembly (analyze_fits).
     std::vector<double> smoothness;
     for (size_t k = 1; k < choices.size(); ++k) smoothness.push_back(choices[k].smoothness);
     if (!smoothness.empty()) report(part(1), 0.0, "projecting");
     domain.analyze_fits(image, smoothness, {}, [&](size_t k, Planes& x) {
-        code_choice(std::move(x));
+        code_choice(k + 1, x);
         if (k + 2 < choices.size()) report(part(k + 2), 0.0, "projecting");
     });
-    std::vector<Coded> coded;
-    for (size_t k = 0; k < pending.size(); ++k) {
-        report(part(k), 0.4, "coding");
-        coded.push_back(pending[k].get());
-    }
     progress(o, 0.9, "choosing");
     const size_t best = choices.size() > 1 ? pick(coded, domain, image, o) : 0;
     Coded& c = coded[best];
