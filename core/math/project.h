@@ -16,10 +16,11 @@
 // to pay for. The normal equations (R^T M R + alpha u I + beta u L) s = R^T M I + alpha u a are
 // solved by conjugate gradients with a Jacobi preconditioner, warm-started from the anchor; R^T R
 // is assembled once per call as a 3x3 stencil per node of each quad's grid, and the iterations run
-// on those grids (a sample on a quad border has a copy in each quad). Memory: about 140 bytes a
-// sample (stencils; five vectors of three channels and two of one on the grids, a fifth larger
-// than the samples at 32 cells a side; the anchor and the result) plus the render plan's 9 bytes a
-// pixel, on top of the hierarchy; its 50-million-sample limit bounds both.
+// on those grids (a sample on a quad border has a copy in each quad). Memory: about 130 bytes a
+// sample at 32 cells a quad side (stencils; five vectors of three channels and two of one on the
+// grids; the anchor and the result; the grids' part grows as (m + 1)^2 / m^2 at m cells a side:
+// 2.25 times at 2, 4 times at 1) plus the render plan's 9 bytes a pixel, on top of the hierarchy;
+// its 50-million-sample limit bounds both.
 #pragma once
 
 #include <cstdint>
