@@ -16,6 +16,7 @@
 #include "core/math/grid_mesh.h"
 #include "core/math/validate.h"
 #include "core/math/voronoi.h"
+#include "test_meshes.h"
 #include "twi_testing.h"
 
 namespace tesswave {
@@ -362,6 +363,16 @@ TEST(TwiRobustness, rounding_keeps_nearly_straight_voronoi_corners_convex) {
         }
     }
     EXPECT_EQ(repaired, 3);  // plain rounding breaks each of these meshes
+    // The repair reads the faces' corners: an invalid mesh (a corner id out of range, faces listed
+    // clockwise) is refused first, with validation's message.
+    Mesh bad_id = grid_mesh(40, 30, 2, 2);
+    bad_id.face_corners[0] = 99;
+    EXPECT_NE(testing::error_of([&] { round_mesh_vertices(bad_id); }).find("mesh"),
+              std::string::npos);
+    Mesh clockwise = grid_mesh(40, 30, 2, 2);
+    std::reverse(clockwise.face_corners.begin(), clockwise.face_corners.end());
+    EXPECT_NE(testing::error_of([&] { round_mesh_vertices(clockwise); }).find("orientation"),
+              std::string::npos);
 }
 
 // The mesh's vertex coordinates and corner ids are zigzag deltas: adding an unchecked delta such as

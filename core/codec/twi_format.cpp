@@ -179,27 +179,14 @@ int64_t twi_bytes_needed(int64_t pixels, int64_t samples, const TwiLimits& limit
                     need(samples, limits.free_samples, limits.samples_per_byte));
 }
 
-namespace {
-
-// Face f is strictly convex at `P`, counterclockwise with a positive area: the rule validate()
-// applies (DESIGN.md 2.1), with its tolerances.
-bool convex_face(const Mesh& mesh, std::span<const Vec2> P, int f) {
-    const double diag = std::hypot(mesh.width, mesh.height);
-    if (face_signed_area(mesh, P, f) <= 1e-12 * diag * diag) return false;
-    const auto corners = mesh.face(f);
-    const size_t n = corners.size();
-    for (size_t i = 0; i < n; ++i) {
-        const Vec2 a = P[corners[i]] - P[corners[(i + n - 1) % n]];
-        const Vec2 b = P[corners[(i + 1) % n]] - P[corners[i]];
-        if (cross(a, b) <= 1e-10 * norm(a) * norm(b)) return false;
-    }
-    return true;
-}
-
-}  // namespace
-
 void round_mesh_vertices(Mesh& mesh) {
+    require_valid(mesh, "mesh");  // the repair below reads the faces' corners
     const std::vector<Vec2> exact = mesh.vertices;
+    // Convex and counterclockwise, as validate() wants every face of a valid mesh.
+    const auto convex_face = [&](int f) {
+        return first_bad_corner(mesh, mesh.vertices, f) == -1 &&
+               face_signed_area(mesh, mesh.vertices, f) > 0;
+    };
     const auto round = [](double v) { return std::round(v * kVertexUnit) / kVertexUnit; };
     for (Vec2& p : mesh.vertices) p = {round(p.x), round(p.y)};
     // Rounding can push a corner that is nearly straight (Voronoi cells have many) past 180
@@ -212,7 +199,7 @@ void round_mesh_vertices(Mesh& mesh) {
     }
     const auto all_convex = [&](int32_t v) {
         for (int f : faces_of[v]) {
-            if (!convex_face(mesh, mesh.vertices, f)) return false;
+            if (!convex_face(f)) return false;
         }
         return true;
     };
@@ -226,7 +213,7 @@ void round_mesh_vertices(Mesh& mesh) {
     for (int pass = 0; pass < 4; ++pass) {
         bool moved = false;
         for (int f = 0; f < mesh.num_faces(); ++f) {
-            if (convex_face(mesh, mesh.vertices, f)) continue;
+            if (convex_face(f)) continue;
             for (int32_t v : mesh.face(f)) {
                 if (all_convex(v)) continue;
                 const Vec2 rounded = mesh.vertices[v];

@@ -85,7 +85,10 @@ struct TwiLimits {
 int64_t twi_bytes_needed(int64_t pixels, int64_t samples, const TwiLimits& limits = {});
 
 // Quantizes explicit mesh vertices to the file's 1/256-pixel grid (the encoder codes the mesh the
-// decoder will see).
+// decoder will see). A vertex at a corner that rounding turns straight or reflex moves to a lattice
+// point within 3/256 pixel of its rounded position at which its faces are convex (along the
+// border for a border vertex), so that a valid mesh stays valid where it can. Throws Error for an
+// invalid mesh.
 void round_mesh_vertices(Mesh& mesh);
 
 std::vector<uint8_t> write_twi_header(const TwiHeader& header);

@@ -86,36 +86,23 @@ bool check_face_indices(const Mesh& mesh, std::span<const Vec2> P, Collector& ou
     return ok;
 }
 
-// Convexity with a scale-aware tolerance: a corner whose turn is below ~1e-10 radians counts as
-// a straight angle, which DESIGN.md 2.1 forbids (every interior angle strictly below 180).
 bool check_face_shapes(const Mesh& mesh, std::span<const Vec2> P, Collector& out) {
-    const double diag = std::hypot(mesh.width, mesh.height);
     std::vector<int> negative;
     int positive = 0;
     bool ok = true;
     for (int f = 0; f < mesh.num_faces() && !out.full(); ++f) {
-        auto corners = mesh.face(f);
-        double area = face_signed_area(mesh, P, f);
-        if (std::abs(area) <= 1e-12 * diag * diag) {
+        const int bad = first_bad_corner(mesh, P, f);
+        if (bad == kDegenerateFace) {
             out.add(str("face ", f, ": degenerate (zero area)"));
             ok = false;
             continue;
         }
-        double sign = area > 0 ? 1.0 : -1.0;
-        (area > 0 ? ++positive : (negative.push_back(f), 0));
-        const size_t n = corners.size();
-        for (size_t i = 0; i < n; ++i) {
-            Vec2 prev = P[corners[(i + n - 1) % n]];
-            Vec2 here = P[corners[i]];
-            Vec2 next = P[corners[(i + 1) % n]];
-            Vec2 a = here - prev;
-            Vec2 b = next - here;
-            if (sign * cross(a, b) <= 1e-10 * norm(a) * norm(b)) {
-                out.add(str("face ", f, ": not convex at corner ", i, " (vertex ", corners[i],
-                            " at ", fmt_point(here), "): interior angle >= 180 degrees"));
-                ok = false;
-                break;
-            }
+        (face_signed_area(mesh, P, f) > 0 ? ++positive : (negative.push_back(f), 0));
+        if (bad >= 0) {
+            const int32_t v = mesh.face(f)[bad];
+            out.add(str("face ", f, ": not convex at corner ", bad, " (vertex ", v, " at ",
+                        fmt_point(P[v]), "): interior angle >= 180 degrees"));
+            ok = false;
         }
     }
     if (!negative.empty() && positive == 0) {
@@ -323,6 +310,23 @@ void check_features(const Mesh& mesh, std::span<const Vec2> P, const MeshEdges& 
 }
 
 }  // namespace
+
+// Convexity with a scale-aware tolerance: a corner whose turn is below ~1e-10 radians counts as
+// a straight angle, which DESIGN.md 2.1 forbids (every interior angle strictly below 180).
+int first_bad_corner(const Mesh& mesh, std::span<const Vec2> P, int f) {
+    const double diag = std::hypot(mesh.width, mesh.height);
+    const double area = face_signed_area(mesh, P, f);
+    if (std::abs(area) <= 1e-12 * diag * diag) return kDegenerateFace;
+    const double sign = area > 0 ? 1.0 : -1.0;
+    const auto corners = mesh.face(f);
+    const size_t n = corners.size();
+    for (size_t i = 0; i < n; ++i) {
+        const Vec2 a = P[corners[i]] - P[corners[(i + n - 1) % n]];
+        const Vec2 b = P[corners[(i + 1) % n]] - P[corners[i]];
+        if (sign * cross(a, b) <= 1e-10 * norm(a) * norm(b)) return static_cast<int>(i);
+    }
+    return -1;
+}
 
 ValidationReport validate(const Mesh& mesh, const ValidateOptions& options) {
     return validate(mesh, mesh.vertices, options);

@@ -30,6 +30,14 @@ ValidationReport validate(const Mesh& mesh, const ValidateOptions& options = {})
 ValidationReport validate(const Mesh& mesh, std::span<const Vec2> positions,
                           const ValidateOptions& options = {});
 
+// The shape rule of DESIGN.md 2.1 for face f at positions P (corner ids in range), with
+// validate()'s tolerances: kDegenerateFace when its area is (nearly) zero, else the first corner
+// that does not turn strictly the way of the face's orientation (a straight or reflex angle), or -1
+// when the face is convex. validate() applies it to every face; round_mesh_vertices to the faces it
+// moves.
+constexpr int kDegenerateFace = -2;
+int first_bad_corner(const Mesh& mesh, std::span<const Vec2> P, int f);
+
 // Throws Error("<what>: <first problem>") unless the mesh is valid.
 void require_valid(const Mesh& mesh, const std::string& what);
 void require_valid(const Mesh& mesh, std::span<const Vec2> positions, const std::string& what);
