@@ -246,8 +246,6 @@ TEST(StillCodec, fixed_grid_53_equals_the_mesh_path_on_a_pixel_aligned_grid_mesh
     EXPECT_GT(near_border, 0);
 }
 
-// The domain cache hands back the domain it holds for an equal shape, probe count and norms,
-// builds a new one for any difference, keeps at most four, and a cached decode equals a fresh one.
 // What compress_image refuses for its size is refused from the size alone (the command checks a
 // file's declared size with it before reading the pixels): an 8192x8192 image's default mesh has
 // more samples than the limit; a side over the limit; J = 11 on a 64x48 image.
@@ -284,6 +282,8 @@ TEST(StillCodec, the_same_file_whatever_the_thread_count) {
     set_thread_count(0);
 }
 
+// The domain cache hands back the domain it holds for an equal shape, probe count and norms,
+// builds a new one for any difference, keeps at most four, and a cached decode equals a fresh one.
 TEST(StillCodec, domains_are_cached_by_shape_probes_and_norms) {
     clear_domain_cache();
     const Image image = scene(48, 40, 3);
