@@ -7,74 +7,28 @@
 
 #include "core/math/error.h"
 #include "core/math/parallel.h"
+#include "core/math/project_grids.h"
 #include "core/math/render.h"
 #include "core/math/sampling.h"
 #include "core/math/strings.h"
 
-// The hot loops below are compiled twice on x86-64, for AVX2 and for the baseline, and picked at
-// load time (elsewhere they are compiled once).
-#if defined(__x86_64__)
-#define TESSWAVE_AVX2_CLONES [[gnu::target_clones("avx2", "default")]]
-#else
-#define TESSWAVE_AVX2_CLONES
-#endif
-
 namespace tesswave {
 namespace {
 
-using Planes = std::vector<std::vector<float>>;
-
-// R^T M R + beta u L as a 3x3 stencil for every node of every quad's (m+1)^2 grid, entry
-// (dr + 1) * 3 + (dc + 1) for the neighbour dr rows and dc columns away; a node shared by several
-// quads sums their stencils. `diagonal` holds the whole matrix's diagonal, alpha u included.
-struct NormalMatrix {
-    int32_t side = 0, grid_size = 0;
-    size_t quads = 0;
-    const int32_t* grid = nullptr;     // the plan's sample ids, grid_size a quad
-    std::unique_ptr<float[]> stencil;  // per quad, 9 planes of grid_size values (entry-major)
-    std::vector<double> diagonal;
-
-    float* entry(size_t q, int e) { return stencil.get() + (q * 9 + e) * grid_size; }
-    const float* entry(size_t q, int e) const { return stencil.get() + (q * 9 + e) * grid_size; }
-    double alpha = 0;  // alpha u
-};
-
-constexpr int stencil_entry(int dr, int dc) { return (dr + 1) * 3 + (dc + 1); }
-
-// Which grid nodes of the quads are shared by several quads (the rest, a quad's own, are written
-// by that quad alone): per quad, the positions of its shared nodes.
-struct SharedNodes {
-    std::vector<uint8_t> shared;      // per quad and grid position
-    std::vector<int32_t> offsets, k;  // per quad, [offsets[q], offsets[q + 1]) of k
-};
-
-SharedNodes find_shared(const NormalMatrix& A, size_t samples) {
-    std::vector<uint8_t> count(samples, 0);
-    const size_t nodes = A.quads * A.grid_size;
-    for (size_t i = 0; i < nodes; ++i)
-        count[A.grid[i]] = static_cast<uint8_t>(std::min(count[A.grid[i]] + 1, 2));
-    SharedNodes s;
-    s.shared.resize(nodes);
-    s.offsets.push_back(0);
-    for (size_t q = 0; q < A.quads; ++q) {
-        for (int32_t k = 0; k < A.grid_size; ++k) {
-            const size_t i = q * A.grid_size + k;
-            s.shared[i] = count[A.grid[i]] > 1;
-            if (s.shared[i]) s.k.push_back(k);
-        }
-        s.offsets.push_back(static_cast<int32_t>(s.k.size()));
-    }
-    return s;
-}
-
-// Adds the values stashed for the shared nodes (one per entry of s.k) to `plane` at their sample
-// ids, in quad order: the same sums whatever the thread count.
-void add_stashed(const NormalMatrix& A, const SharedNodes& s, const float* stash, float* plane) {
-    for (size_t q = 0; q < A.quads; ++q) {
-        const int32_t* ids = A.grid + q * A.grid_size;
-        for (int32_t i = s.offsets[q]; i < s.offsets[q + 1]; ++i) plane[ids[s.k[i]]] += stash[i];
-    }
-}
+using detail::add_stashed;
+using detail::dot;
+using detail::find_shared;
+using detail::from_local;
+using detail::LocalGrids;
+using detail::make_local;
+using detail::multiply;
+using detail::next_direction;
+using detail::NormalMatrix;
+using detail::Planes;
+using detail::SharedNodes;
+using detail::stencil_entry;
+using detail::step_channel;
+using detail::to_local;
 
 // Zeroes the stencils and adds the data term (and the right-hand side R^T M I) of every pixel the
 // plan renders, the quads shared among the cores. A quad's stencils are its own; its right-hand
@@ -165,233 +119,6 @@ void add_smoothness(NormalMatrix& A, float weight) {
             }
         }
     }
-}
-
-// o[c] = sum over the nine entries e of st[e][c] g[c + offset[e]], c < n, each sum made in entry
-// order. Compiled twice, for AVX2 and for the baseline x86-64, and picked at load time: the
-// vectorized rows run 8 lanes wide where the machine has them. Both versions do the same float
-// multiplications and additions in the same order (no fused multiply-add), so the results are the
-// same to the bit on any machine.
-TESSWAVE_AVX2_CLONES void stencil_row(const float* const* st, const float* g, const int32_t* offset,
-                                      int32_t n, float* __restrict o) {
-    const float* __restrict s0 = st[0];
-    const float* __restrict s1 = st[1];
-    const float* __restrict s2 = st[2];
-    const float* __restrict s3 = st[3];
-    const float* __restrict s4 = st[4];
-    const float* __restrict s5 = st[5];
-    const float* __restrict s6 = st[6];
-    const float* __restrict s7 = st[7];
-    const float* __restrict s8 = st[8];
-    const float* __restrict g0 = g + offset[0];
-    const float* __restrict g1 = g + offset[1];
-    const float* __restrict g2 = g + offset[2];
-    const float* __restrict g3 = g + offset[3];
-    const float* __restrict g4 = g + offset[4];
-    const float* __restrict g5 = g + offset[5];
-    const float* __restrict g6 = g + offset[6];
-    const float* __restrict g7 = g + offset[7];
-    const float* __restrict g8 = g + offset[8];
-    for (int32_t c = 0; c < n; ++c) {
-        float sum = 0.0f;
-        sum += s0[c] * g0[c];
-        sum += s1[c] * g1[c];
-        sum += s2[c] * g2[c];
-        sum += s3[c] * g3[c];
-        sum += s4[c] * g4[c];
-        sum += s5[c] * g5[c];
-        sum += s6[c] * g6[c];
-        sum += s7[c] * g7[c];
-        sum += s8[c] * g8[c];
-        o[c] = sum;
-    }
-}
-
-// The solver's vectors, per channel, live in the quads' grids: quad q's side^2 values, row by row
-// as in the plan, one quad after the other, so that the stencil reads a node's neighbours at fixed
-// offsets and no value is fetched through its sample id. A stencil entry that points out of its
-// quad's grid is zero (R^T R and the smoothness couple nodes of one quad only), so what such a read
-// finds (the next row, the next quad, or the zero margin at either end) counts for nothing. A
-// sample on the border of several quads has a copy in each, and every copy holds the same value
-// (each is updated by the same arithmetic on the same values). Dot products count a sample once,
-// at its first copy. The vectors are (side / (side - 1))^2 times the samples: 1.06 at 32 cells a
-// side, 2.25 at 2, 4 at 1.
-struct LocalGrids {
-    int32_t side = 0, grid_size = 0;
-    size_t margin = 0, size = 0;  // margin: zeros before the first quad and after the last
-    std::vector<float> owner;     // 1 at each sample's first copy, else 0 (the margins too)
-    // The shared samples, each with [offsets[i], offsets[i + 1]) of `copy` and `stashed`: its
-    // copies' local indices, in quad order, and where each copy's product waits (SharedNodes').
-    std::vector<int32_t> offsets, copy, stashed;
-
-    size_t index(size_t q, int32_t k) const { return margin + q * grid_size + k; }
-};
-
-LocalGrids make_local(const NormalMatrix& A, const SharedNodes& s, size_t samples) {
-    LocalGrids g;
-    g.side = A.side;
-    g.grid_size = A.grid_size;
-    g.margin = static_cast<size_t>(A.side) + 1;
-    g.size = A.quads * A.grid_size + 2 * g.margin;
-    g.owner.assign(g.size, 0.0f);
-    std::vector<uint8_t> seen(samples, 0);
-    for (size_t q = 0; q < A.quads; ++q) {
-        for (int32_t k = 0; k < A.grid_size; ++k) {
-            const int32_t id = A.grid[q * A.grid_size + k];
-            if (!seen[id]) seen[id] = 1, g.owner[g.index(q, k)] = 1.0f;
-        }
-    }
-    // The shared copies grouped by sample (groups in the order of their first copy), each group in
-    // quad order: a stable counting sort of the stash entries.
-    std::vector<int32_t> group(samples, -1), count;
-    std::vector<int32_t> entry_group(s.k.size());
-    for (size_t q = 0; q < A.quads; ++q) {
-        for (int32_t i = s.offsets[q]; i < s.offsets[q + 1]; ++i) {
-            const int32_t id = A.grid[q * A.grid_size + s.k[i]];
-            if (group[id] < 0) {
-                group[id] = static_cast<int32_t>(count.size());
-                count.push_back(0);
-            }
-            entry_group[i] = group[id];
-            ++count[group[id]];
-        }
-    }
-    g.offsets.assign(count.size() + 1, 0);
-    for (size_t i = 0; i < count.size(); ++i) g.offsets[i + 1] = g.offsets[i] + count[i];
-    g.copy.resize(s.k.size());
-    g.stashed.resize(s.k.size());
-    std::vector<int32_t> next(g.offsets.begin(), g.offsets.end() - 1);
-    for (size_t q = 0; q < A.quads; ++q) {
-        for (int32_t i = s.offsets[q]; i < s.offsets[q + 1]; ++i) {
-            const int32_t at = next[entry_group[i]]++;
-            g.copy[at] = static_cast<int32_t>(g.index(q, s.k[i]));
-            g.stashed[at] = i;
-        }
-    }
-    return g;
-}
-
-// The local copies of a plane of samples, and back (from each sample's first copy).
-void to_local(const NormalMatrix& A, const LocalGrids& g, const std::vector<float>& plane,
-              std::vector<float>& local) {
-    local.assign(g.size, 0.0f);
-    parallel_for(static_cast<int64_t>(A.quads), [&](int64_t begin, int64_t end) {
-        for (auto q = static_cast<size_t>(begin); q < static_cast<size_t>(end); ++q) {
-            const int32_t* ids = A.grid + q * A.grid_size;
-            for (int32_t k = 0; k < A.grid_size; ++k) local[g.index(q, k)] = plane[ids[k]];
-        }
-    });
-}
-
-void from_local(const NormalMatrix& A, const LocalGrids& g, const std::vector<float>& local,
-                std::vector<float>& plane) {
-    for (size_t q = 0; q < A.quads; ++q) {
-        const int32_t* ids = A.grid + q * A.grid_size;
-        for (int32_t k = 0; k < A.grid_size; ++k) {
-            const size_t i = g.index(q, k);
-            if (g.owner[i] != 0) plane[ids[k]] = local[i];
-        }
-    }
-}
-
-// y_c = A x_c for the channels c in `active`, on the local grids, the quads shared among the cores:
-// per quad, the stencil applied row by row (entry-major, so the rows vectorize). An unshared node
-// gets y = alpha u x + its product at once; a shared node's product waits in `products`, and its
-// copies then get alpha u x plus the products of all its quads, added in quad order, so that every
-// sum is made in the same order whatever the thread count.
-void multiply(const NormalMatrix& A, const SharedNodes& s, const LocalGrids& g, const Planes& x,
-              Planes& y, const std::vector<int>& active, std::vector<float>& products) {
-    const int32_t side = g.side, grid_size = g.grid_size;
-    const size_t n = active.size(), shared = s.k.size();
-    products.resize(n * shared);
-    const float alpha = static_cast<float>(A.alpha);
-    const int32_t offset[9] = {-side - 1, -side, -side + 1, -1, 0, 1, side - 1, side, side + 1};
-    parallel_for(static_cast<int64_t>(A.quads), [&](int64_t begin, int64_t end) {
-        for (auto q = static_cast<size_t>(begin); q < static_cast<size_t>(end); ++q) {
-            const float* st[9];
-            for (int e = 0; e < 9; ++e) st[e] = A.entry(q, e);
-            for (size_t a = 0; a < n; ++a) {
-                const float* __restrict xq = x[active[a]].data() + g.index(q, 0);
-                float* __restrict yq = y[active[a]].data() + g.index(q, 0);
-                stencil_row(st, xq, offset, grid_size, yq);  // the whole grid as one row
-                float* stash = products.data() + a * shared;
-                for (int32_t i = s.offsets[q]; i < s.offsets[q + 1]; ++i) stash[i] = yq[s.k[i]];
-                for (int32_t k = 0; k < grid_size; ++k) yq[k] = alpha * xq[k] + yq[k];
-            }
-        }
-    });
-    const auto groups = static_cast<int64_t>(g.offsets.size()) - 1;
-    parallel_for(
-        groups,
-        [&](int64_t begin, int64_t end) {
-            for (size_t a = 0; a < n; ++a) {
-                const float* xc = x[active[a]].data();
-                float* yc = y[active[a]].data();
-                const float* stash = products.data() + a * shared;
-                for (int64_t i = begin; i < end; ++i) {
-                    float total = alpha * xc[g.copy[g.offsets[i]]];
-                    for (int32_t j = g.offsets[i]; j < g.offsets[i + 1]; ++j)
-                        total += stash[g.stashed[j]];
-                    for (int32_t j = g.offsets[i]; j < g.offsets[i + 1]; ++j) yc[g.copy[j]] = total;
-                }
-            }
-        },
-        1024);
-}
-
-// The reductions below keep four partial sums (k mod 4), so that a loop is not bound by the
-// latency of one double accumulator; the order, and so the result, is fixed. `owner` counts each
-// sample once. Like stencil_row, each is compiled for AVX2 and the baseline, with the same
-// arithmetic in the same order (the four sums are the four lanes of a vector).
-TESSWAVE_AVX2_CLONES double dot(const float* __restrict a, const float* __restrict b,
-                                const float* __restrict owner, size_t n) {
-    double sum[4] = {0, 0, 0, 0};
-    const size_t whole = n - n % 4;
-    for (size_t k = 0; k < whole; k += 4) {
-        for (int i = 0; i < 4; ++i)
-            sum[i] += static_cast<double>(a[k + i] * owner[k + i]) * b[k + i];
-    }
-    for (size_t k = whole; k < n; ++k) sum[k % 4] += static_cast<double>(a[k] * owner[k]) * b[k];
-    return (sum[0] + sum[1]) + (sum[2] + sum[3]);
-}
-
-double dot(const std::vector<float>& a, const std::vector<float>& b,
-           const std::vector<float>& owner) {
-    return dot(a.data(), b.data(), owner.data(), a.size());
-}
-
-// One conjugate-gradient step of a channel, in one pass: x += step p, r -= step Ap; returns r.z
-// (z = r / d) and r.r.
-TESSWAVE_AVX2_CLONES std::pair<double, double> step_channel(
-    float step, float* __restrict x, float* __restrict r, const float* __restrict p,
-    const float* __restrict ap, const float* __restrict inverse, const float* __restrict owner,
-    size_t n) {
-    double rz[4] = {0, 0, 0, 0}, rr[4] = {0, 0, 0, 0};
-    const size_t whole = n - n % 4;
-    for (size_t k = 0; k < whole; k += 4) {
-        for (int i = 0; i < 4; ++i) {
-            x[k + i] += step * p[k + i];
-            r[k + i] -= step * ap[k + i];
-            const double v = r[k + i] * owner[k + i];
-            rz[i] += v * (r[k + i] * inverse[k + i]);
-            rr[i] += v * r[k + i];
-        }
-    }
-    for (size_t k = whole; k < n; ++k) {
-        x[k] += step * p[k];
-        r[k] -= step * ap[k];
-        const double v = r[k] * owner[k];
-        rz[k % 4] += v * (r[k] * inverse[k]);
-        rr[k % 4] += v * r[k];
-    }
-    return {(rz[0] + rz[1]) + (rz[2] + rz[3]), (rr[0] + rr[1]) + (rr[2] + rr[3])};
-}
-
-// The next search direction: p = r / d + beta p.
-TESSWAVE_AVX2_CLONES void next_direction(float beta, const float* __restrict r,
-                                         const float* __restrict inverse, float* __restrict p,
-                                         size_t n) {
-    for (size_t k = 0; k < n; ++k) p[k] = r[k] * inverse[k] + beta * p[k];
 }
 
 void check_options(const ProjectOptions& o) {

@@ -1,0 +1,102 @@
+// The projection's linear algebra (project.cpp): the normal matrix as per-quad stencils, and the
+// conjugate-gradient vectors on the quads' own grids, with the kernels that work on them. Internal
+// to the math layer.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <utility>
+#include <vector>
+
+namespace tesswave::detail {
+
+using Planes = std::vector<std::vector<float>>;
+
+// R^T M R + beta u L as a 3x3 stencil for every node of every quad's (m+1)^2 grid, entry
+// (dr + 1) * 3 + (dc + 1) for the neighbour dr rows and dc columns away; a node shared by several
+// quads sums their stencils. `diagonal` holds the whole matrix's diagonal, alpha u included.
+struct NormalMatrix {
+    int32_t side = 0, grid_size = 0;
+    size_t quads = 0;
+    const int32_t* grid = nullptr;     // the plan's sample ids, grid_size a quad
+    std::unique_ptr<float[]> stencil;  // per quad, 9 planes of grid_size values (entry-major)
+    std::vector<double> diagonal;
+
+    float* entry(size_t q, int e) { return stencil.get() + (q * 9 + e) * grid_size; }
+    const float* entry(size_t q, int e) const { return stencil.get() + (q * 9 + e) * grid_size; }
+    double alpha = 0;  // alpha u
+};
+
+constexpr int stencil_entry(int dr, int dc) { return (dr + 1) * 3 + (dc + 1); }
+
+// Which grid nodes of the quads are shared by several quads (the rest, a quad's own, are written
+// by that quad alone): per quad, the positions of its shared nodes.
+struct SharedNodes {
+    std::vector<uint8_t> shared;      // per quad and grid position
+    std::vector<int32_t> offsets, k;  // per quad, [offsets[q], offsets[q + 1]) of k
+};
+
+// The positions of the shared nodes of every quad.
+SharedNodes find_shared(const NormalMatrix& A, size_t samples);
+
+// Adds the values stashed for the shared nodes (one per entry of s.k) to `plane` at their sample
+// ids, in quad order: the same sums whatever the thread count.
+void add_stashed(const NormalMatrix& A, const SharedNodes& s, const float* stash, float* plane);
+
+// The solver's vectors, per channel, live in the quads' grids: quad q's side^2 values, row by row
+// as in the plan, one quad after the other, so that the stencil reads a node's neighbours at fixed
+// offsets and no value is fetched through its sample id. A stencil entry that points out of its
+// quad's grid is zero (R^T R and the smoothness couple nodes of one quad only), so what such a read
+// finds (the next row, the next quad, or the zero margin at either end) counts for nothing. A
+// sample on the border of several quads has a copy in each, and every copy holds the same value
+// (each is updated by the same arithmetic on the same values). Dot products count a sample once,
+// at its first copy. The vectors are (side / (side - 1))^2 times the samples: 1.06 at 32 cells a
+// side, 2.25 at 2, 4 at 1.
+struct LocalGrids {
+    int32_t side = 0, grid_size = 0;
+    size_t margin = 0, size = 0;  // margin: zeros before the first quad and after the last
+    std::vector<float> owner;     // 1 at each sample's first copy, else 0 (the margins too)
+    // The shared samples, each with [offsets[i], offsets[i + 1]) of `copy` and `stashed`: its
+    // copies' local indices, in quad order, and where each copy's product waits (SharedNodes').
+    std::vector<int32_t> offsets, copy, stashed;
+
+    size_t index(size_t q, int32_t k) const { return margin + q * grid_size + k; }
+};
+
+LocalGrids make_local(const NormalMatrix& A, const SharedNodes& s, size_t samples);
+
+// The local copies of a plane of samples, and back (from each sample's first copy).
+void to_local(const NormalMatrix& A, const LocalGrids& g, const std::vector<float>& plane,
+              std::vector<float>& local);
+void from_local(const NormalMatrix& A, const LocalGrids& g, const std::vector<float>& local,
+                std::vector<float>& plane);
+
+// y_c = A x_c for the channels c in `active`, on the local grids, the quads shared among the cores:
+// per quad, the stencil applied row by row (entry-major, so the rows vectorize). An unshared node
+// gets y = alpha u x + its product at once; a shared node's product waits in `products`, and its
+// copies then get alpha u x plus the products of all its quads, added in quad order, so that every
+// sum is made in the same order whatever the thread count.
+void multiply(const NormalMatrix& A, const SharedNodes& s, const LocalGrids& g, const Planes& x,
+              Planes& y, const std::vector<int>& active, std::vector<float>& products);
+
+// The reductions below keep four partial sums (k mod 4), so that a loop is not bound by the
+// latency of one double accumulator; the order, and so the result, is fixed. `owner` counts each
+// sample once. They and the stencil product are compiled for AVX2 and the baseline x86-64 and
+// picked at load time, with the same float and double operations in the same order (no fused
+// multiply-add): the results are the same to the bit on any machine.
+double dot(const std::vector<float>& a, const std::vector<float>& b,
+           const std::vector<float>& owner);
+
+// One conjugate-gradient step of a channel, in one pass: x += step p, r -= step Ap; returns r.z
+// (z = r / d) and r.r.
+std::pair<double, double> step_channel(float step, float* __restrict x, float* __restrict r,
+                                       const float* __restrict p, const float* __restrict ap,
+                                       const float* __restrict inverse,
+                                       const float* __restrict owner, size_t n);
+
+// The next search direction: p = r / d + beta p.
+void next_direction(float beta, const float* __restrict r, const float* __restrict inverse,
+                    float* __restrict p, size_t n);
+
+}  // namespace tesswave::detail
