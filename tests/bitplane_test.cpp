@@ -63,6 +63,39 @@ TEST(Bitplane, a_whole_stream_decodes_every_coefficient_exactly) {
     }
 }
 
+// A grid layout's relations, computed by the coder from the bands' rectangles, are the ones its
+// lists spell out (grid_layout's listed form, which coding_layout_test checks): the streams are
+// the same bytes, dense or sparse, on sizes whose bands are odd, one wide or one high.
+TEST(Bitplane, computed_grid_relations_code_as_the_listed_ones) {
+    struct Size {
+        int width, height, levels;
+    };
+    for (const Size& s : {Size{40, 24, 3}, Size{37, 23, 4}, Size{1, 9, 3}, Size{64, 3, 4},
+                          Size{7, 5, 2}, Size{33, 17, 5}}) {
+        SCOPED_TRACE(::testing::Message() << s.width << "x" << s.height << ", " << s.levels);
+        const CodingLayout computed = grid_layout(s.width, s.height, s.levels, GridWavelet::cdf53,
+                                                  false, GridRelations::computed);
+        const CodingLayout listed = grid_layout(s.width, s.height, s.levels, GridWavelet::cdf53,
+                                                false, GridRelations::listed);
+        ASSERT_TRUE(computed.nb.empty() && computed.ch.empty());
+        ASSERT_EQ(computed.order, listed.order);
+        for (const int keep : {2, 9}) {  // one coefficient in `keep` nonzero
+            Planes32 q = random_coefficients(computed, 3, 13 + keep);
+            for (auto& plane : q) {
+                for (size_t i = 0; i < plane.size(); ++i) {
+                    if (i % keep) plane[i] = 0;
+                }
+            }
+            const PlaneCounts planes = count_planes(computed, views(q));
+            const BitplaneOptions options{.shifts = std::vector<int>(computed.bands.size(), 0)};
+            const std::vector<uint8_t> a = encode_bitplanes(computed, views(q), planes, options);
+            EXPECT_TRUE(a == encode_bitplanes(listed, views(q), planes, options))
+                << "the streams differ (one coefficient in " << keep << " nonzero)";
+            EXPECT_EQ(decode_bitplanes(computed, planes, a, options).value, q);
+        }
+    }
+}
+
 // Version 1 files' streams had models adapting at their settled rates from the start: with
 // fast_start false both sides code that way, and the stream is longer than a fast-start one.
 TEST(Bitplane, settled_models_round_trip_and_cost_more_than_fast_start) {

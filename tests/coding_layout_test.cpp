@@ -76,7 +76,35 @@ TEST(CodingLayout, grid_layouts_are_consistent) {
     for (auto [w, h] : {std::pair{32, 32}, std::pair{37, 23}, std::pair{1, 9}, std::pair{64, 3}}) {
         for (GridWavelet wavelet : {GridWavelet::cdf53, GridWavelet::cdf97}) {
             SCOPED_TRACE(::testing::Message() << w << "x" << h);
-            expect_consistent(grid_layout(w, h, 4, wavelet));
+            expect_consistent(grid_layout(w, h, 4, wavelet, true, GridRelations::listed));
+        }
+    }
+}
+
+// The computed form holds the same order and bands as the listed one, and the bands' rectangles
+// with their child bands: the same orientation one level finer.
+TEST(CodingLayout, computed_grid_layouts_hold_the_listed_order_and_bands) {
+    for (auto [w, h] : {std::pair{32, 32}, std::pair{37, 23}, std::pair{1, 9}, std::pair{64, 3}}) {
+        SCOPED_TRACE(::testing::Message() << w << "x" << h);
+        const CodingLayout c = grid_layout(w, h, 4, GridWavelet::cdf53);
+        const CodingLayout l =
+            grid_layout(w, h, 4, GridWavelet::cdf53, true, GridRelations::listed);
+        EXPECT_EQ(c.order, l.order);
+        ASSERT_EQ(c.bands.size(), l.bands.size());
+        ASSERT_EQ(c.grid_bands.size(), c.bands.size());
+        ASSERT_EQ(c.grid_child_band.size(), c.bands.size());
+        EXPECT_EQ(c.grid_width, w);
+        EXPECT_TRUE(c.nb.empty() && c.nb_offsets.empty() && c.ch.empty() && c.ch_offsets.empty());
+        for (size_t b = 0; b < c.bands.size(); ++b) {
+            EXPECT_EQ(c.bands[b].begin, l.bands[b].begin);
+            EXPECT_EQ(c.bands[b].end, l.bands[b].end);
+            EXPECT_EQ(c.bands[b].norm, l.bands[b].norm);
+            const GridBand& g = c.grid_bands[b];
+            EXPECT_EQ(c.bands[b].end - c.bands[b].begin, g.width * g.height);
+            const int32_t child = c.grid_child_band[b];
+            if (child < 0) continue;
+            EXPECT_EQ(c.grid_bands[child].type, g.type);
+            EXPECT_EQ(c.grid_bands[child].level + 1, g.level);
         }
     }
 }

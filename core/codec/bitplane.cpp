@@ -90,13 +90,17 @@ class Traversal {
           near_(value.size(), std::vector<uint8_t>(layout.size, 0)),
           candidates_(value.size(), std::vector<uint64_t>((layout.size + 63) / 64, 0)),
           significant_(value.size(), std::vector<uint64_t>((layout.size + 63) / 64, 0)),
-          models_(layout.bands.size() * 4) {
+          models_(layout.bands.size() * 4),
+          grid_(!layout.grid_bands.empty()) {
         if (!options.fast_start) {
             for (BandModels& m : models_) m.settle();
         }
-        // Positions of the coefficient ids, unless the order is the identity (the mesh's).
+        // Positions of the coefficient ids, unless the order is the identity (the mesh's) or
+        // the relations are computed (a grid's, whose positions are computed too).
         bool identity = true;
-        for (int32_t k = 0; k < layout.size && identity; ++k) identity = layout.order[k] == k;
+        for (int32_t k = 0; k < layout.size && identity && !grid_; ++k) {
+            identity = layout.order[k] == k;
+        }
         if (!identity) {
             position_.resize(layout.size);
             for (int32_t k = 0; k < layout.size; ++k) position_[layout.order[k]] = k;
@@ -157,24 +161,70 @@ class Traversal {
         const int n = near[id];
         return 3 * std::min(n & 15, 2) + std::min(n >> 4, 2);
     }
+    // visit(id, position, primary) for each neighbour of the coefficient at position k of the
+    // band being coded: from the lists, or computed on a grid (the 8 around it inside its band).
+    template <class Visit>
+    void for_each_neighbour(int32_t k, Visit&& visit) const {
+        if (!grid_) {
+            const int32_t begin = layout_.nb_offsets[k], split = begin + layout_.nb_primary[k];
+            for (int32_t i = begin; i < layout_.nb_offsets[k + 1]; ++i) {
+                visit(layout_.nb[i], position(layout_.nb[i]), i < split);
+            }
+            return;
+        }
+        const GridBand& g = layout_.grid_bands[band_];
+        const int32_t r = k - layout_.bands[band_].begin, y = r / g.width, x = r - y * g.width;
+        const int32_t id = (g.y0 + y) * layout_.grid_width + g.x0 + x;
+        for (int dy = -1; dy <= 1; ++dy) {
+            if (y + dy < 0 || y + dy >= g.height) continue;
+            for (int dx = -1; dx <= 1; ++dx) {
+                if ((dx == 0 && dy == 0) || x + dx < 0 || x + dx >= g.width) continue;
+                visit(id + dy * layout_.grid_width + dx, k + dy * g.width + dx,
+                      grid_primary(g.type, dx, dy));
+            }
+        }
+    }
+    // visit(id, position) for each child of coefficient `id` at position k of the band being
+    // coded. On a grid, the parent of (x, y) in a w x h band is (min(x / 2, w - 1),
+    // min(y / 2, h - 1)) one level coarser, so the children of the last column or row reach to
+    // the end of the finer band.
+    template <class Visit>
+    void for_each_child(int32_t k, int32_t id, Visit&& visit) const {
+        if (!grid_) {
+            for (int32_t i = layout_.ch_offsets[id]; i < layout_.ch_offsets[id + 1]; ++i) {
+                visit(layout_.ch[i], position(layout_.ch[i]));
+            }
+            return;
+        }
+        const int32_t cb = layout_.grid_child_band[band_];
+        if (cb < 0) return;
+        const GridBand& g = layout_.grid_bands[band_];
+        const GridBand& f = layout_.grid_bands[cb];
+        const int32_t r = k - layout_.bands[band_].begin, y = r / g.width, x = r - y * g.width;
+        const int32_t x1 = x + 1 == g.width ? f.width : std::min(2 * x + 2, f.width);
+        const int32_t y1 = y + 1 == g.height ? f.height : std::min(2 * y + 2, f.height);
+        for (int32_t fy = 2 * y; fy < y1; ++fy) {
+            for (int32_t fx = 2 * x; fx < x1; ++fx) {
+                visit((f.y0 + fy) * layout_.grid_width + f.x0 + fx,
+                      layout_.bands[cb].begin + fy * f.width + fx);
+            }
+        }
+    }
+
     // A coefficient became significant: its neighbours count it (the relation is symmetric, and
     // primary on both sides; coding_layout_test checks this).
     // Each neighbour not yet significant becomes a candidate of pass 0.
     void count_significant(uint8_t* near, const uint8_t* state, uint64_t* candidates,
                            int32_t k) const {
-        const int32_t begin = layout_.nb_offsets[k], split = begin + layout_.nb_primary[k];
-        for (int32_t i = begin; i < split; ++i) {
-            const int32_t id = layout_.nb[i];
+        for_each_neighbour(k, [&](int32_t id, int32_t position, bool primary) {
             uint8_t& n = near[id];
-            if ((n & 15) < 15) ++n;
-            if (!(state[id] & kSignificant)) set_bit(candidates, position(id));
-        }
-        for (int32_t i = split; i < layout_.nb_offsets[k + 1]; ++i) {
-            const int32_t id = layout_.nb[i];
-            uint8_t& n = near[id];
-            if ((n >> 4) < 15) n += 16;
-            if (!(state[id] & kSignificant)) set_bit(candidates, position(id));
-        }
+            if (primary) {
+                if ((n & 15) < 15) ++n;
+            } else if ((n >> 4) < 15) {
+                n += 16;
+            }
+            if (!(state[id] & kSignificant)) set_bit(candidates, position);
+        });
     }
     int32_t position(int32_t id) const { return position_.empty() ? id : position_[id]; }
     static void set_bit(uint64_t* bits, int32_t k) { bits[k >> 6] |= uint64_t{1} << (k & 63); }
@@ -202,10 +252,10 @@ class Traversal {
     }
     int sign_context(const uint8_t* state, int32_t k) const {
         int net = 0;
-        for (int32_t i = layout_.nb_offsets[k]; i < layout_.nb_offsets[k + 1]; ++i) {
-            const uint8_t s = state[layout_.nb[i]];
+        for_each_neighbour(k, [&](int32_t id, int32_t, bool) {
+            const uint8_t s = state[id];
             if (s & kSignificant) net += (s & kNegative) ? -1 : 1;
-        }
+        });
         return net < 0 ? 0 : net == 0 ? 1 : 2;
     }
 
@@ -230,11 +280,10 @@ class Traversal {
         clear_bit(candidates, k);
         set_bit(significant_[c_].data(), k);
         count_significant(near_[c_].data(), state, candidates, k);
-        for (int32_t i = layout_.ch_offsets[id]; i < layout_.ch_offsets[id + 1]; ++i) {
-            const int32_t child = layout_.ch[i];
+        for_each_child(k, id, [&](int32_t child, int32_t position) {
             state[child] |= kParent;
-            if (!(state[child] & kSignificant)) set_bit(candidates, position(child));
-        }
+            if (!(state[child] & kSignificant)) set_bit(candidates, position);
+        });
         if constexpr (std::is_same_v<Side, DecodeSide>) v = negative ? -(1 << p) : 1 << p;
         return true;
     }
@@ -286,6 +335,7 @@ class Traversal {
         uint8_t* known = known_[c].data();
         const uint8_t* near = near_[c].data();
         c_ = c;
+        band_ = b;
         if (pass == 0) {
             // Significance where a neighbour or parent is significant: the candidates, which are
             // exactly the coefficients not significant with a significant neighbour or parent.
@@ -343,7 +393,9 @@ class Traversal {
     std::vector<std::vector<uint64_t>> candidates_, significant_;
     std::vector<int32_t> position_;  // of each coefficient id in `order` (empty: the identity)
     int c_ = 0;                      // the channel being coded
+    int band_ = 0;                   // and the band
     std::vector<BandModels> models_;
+    bool grid_;  // the relations are computed from the layout's grid bands
 };
 
 void check_planes(const CodingLayout& layout, const PlaneCounts& planes,

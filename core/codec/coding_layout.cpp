@@ -187,12 +187,10 @@ std::vector<double> grid_band_norms(int width, int height, int levels, GridWavel
     return norms;
 }
 
-CodingLayout grid_layout(int width, int height, int levels, GridWavelet wavelet, bool norms) {
+CodingLayout grid_layout(int width, int height, int levels, GridWavelet wavelet, bool norms,
+                         GridRelations relations) {
     CodingLayout layout;
     layout.size = width * height;
-    const auto size = static_cast<size_t>(layout.size);
-    // One entry a coefficient; at most 8 neighbours and 1 parent each.
-    LayoutWriter w(layout, size, size * 8, size);
     const std::vector<GridBand> bands = grid_bands(width, height, levels);
     const char types[] = {'L', 'H', 'V', 'D'};
     std::vector<double> band_norms(bands.size(), 1.0);
@@ -200,21 +198,44 @@ CodingLayout grid_layout(int width, int height, int levels, GridWavelet wavelet,
         band_norms = grid_band_norms(width, height, levels, wavelet);
         if (band_norms.size() != bands.size()) band_norms.assign(bands.size(), 1.0);
     }
+    // The band of the same orientation one level coarser (none for the LL band and the coarsest
+    // details).
+    auto coarser = [&](size_t b) -> const GridBand* {
+        const GridBand& g = bands[b];
+        return g.type != 0 && b >= 4 && bands[b - 3].level == g.level + 1 ? &bands[b - 3] : nullptr;
+    };
+    if (relations == GridRelations::computed) {
+        layout.order.resize(static_cast<size_t>(layout.size));
+        int32_t k = 0;
+        for (size_t b = 0; b < bands.size(); ++b) {
+            const GridBand& g = bands[b];
+            const int32_t begin = k;
+            for (int y = 0; y < g.height; ++y) {
+                for (int x = 0; x < g.width; ++x) layout.order[k++] = (g.y0 + y) * width + g.x0 + x;
+            }
+            layout.bands.push_back({g.level, types[g.type], begin, k, band_norms[b]});
+        }
+        layout.grid_width = width;
+        layout.grid_bands = bands;
+        layout.grid_child_band.assign(bands.size(), -1);
+        for (size_t b = 0; b < bands.size(); ++b) {
+            if (coarser(b)) layout.grid_child_band[b - 3] = static_cast<int32_t>(b);
+        }
+        return layout;
+    }
+    const auto size = static_cast<size_t>(layout.size);
+    // One entry a coefficient; at most 8 neighbours and 1 parent each.
+    LayoutWriter w(layout, size, size * 8, size);
     for (size_t b = 0; b < bands.size(); ++b) {
         const GridBand& g = bands[b];
         const int32_t begin = w.position();
-        // The same orientation one level coarser (none for the LL band and the coarsest details).
-        const GridBand* coarser = nullptr;
-        if (g.type != 0 && b >= 4 && bands[b - 3].level == g.level + 1) coarser = &bands[b - 3];
+        const GridBand* parents = coarser(b);
         // The 8 neighbour offsets, primary ones first.
         int dxs[8], dys[8], n = 0, primaries = 0;
         for (bool primary : {true, false}) {
             for (int dy = -1; dy <= 1; ++dy) {
                 for (int dx = -1; dx <= 1; ++dx) {
-                    const bool p = g.type == 3   ? (dx && dy)
-                                   : g.type == 1 ? (!dx && dy)
-                                                 : (dx && !dy);
-                    if ((dx || dy) && p == primary) {
+                    if ((dx || dy) && grid_primary(g.type, dx, dy) == primary) {
                         dxs[n] = dx;
                         dys[n++] = dy;
                         primaries += primary;
@@ -222,31 +243,23 @@ CodingLayout grid_layout(int width, int height, int levels, GridWavelet wavelet,
                 }
             }
         }
-        int32_t offset[8];
-        for (int i = 0; i < 8; ++i) offset[i] = dys[i] * width + dxs[i];
         for (int y = 0; y < g.height; ++y) {
-            const bool inner_row = y > 0 && y + 1 < g.height;
             const int32_t row = (g.y0 + y) * width + g.x0;
             for (int xx = 0; xx < g.width; ++xx) {
                 const int32_t id = row + xx;
                 w.start(id);
-                if (inner_row && xx > 0 && xx + 1 < g.width) {
-                    for (int i = 0; i < 8; ++i) w.neighbour(id + offset[i]);
-                    w.set_primary(primaries);
-                } else {
-                    int count = 0;
-                    for (int i = 0; i < 8; ++i) {
-                        const int yy = y + dys[i], xn = xx + dxs[i];
-                        if (yy < 0 || yy >= g.height || xn < 0 || xn >= g.width) continue;
-                        w.neighbour(id + offset[i]);
-                        count += i < primaries;
-                    }
-                    w.set_primary(count);
+                int count = 0;
+                for (int i = 0; i < 8; ++i) {
+                    const int yy = y + dys[i], xn = xx + dxs[i];
+                    if (yy < 0 || yy >= g.height || xn < 0 || xn >= g.width) continue;
+                    w.neighbour(id + dys[i] * width + dxs[i]);
+                    count += i < primaries;
                 }
-                if (coarser) {
-                    const int py = std::min(y / 2, coarser->height - 1);
-                    const int px = std::min(xx / 2, coarser->width - 1);
-                    w.parent((coarser->y0 + py) * width + coarser->x0 + px);
+                w.set_primary(count);
+                if (parents) {
+                    const int py = std::min(y / 2, parents->height - 1);
+                    const int px = std::min(xx / 2, parents->width - 1);
+                    w.parent((parents->y0 + py) * width + parents->x0 + px);
                 }
             }
         }

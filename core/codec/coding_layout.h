@@ -36,6 +36,14 @@ struct CodingLayout {
     std::vector<uint8_t> nb_primary;
     // Per coefficient id: the coefficients it is a parent of [ch_offsets[i], ch_offsets[i+1]).
     std::vector<int32_t> ch_offsets, ch;
+    // Fixed-grid layouts without lists (grid_layout's default): the bands' rectangles in the
+    // Mallat plane `grid_width` coefficients wide, one per entry of `bands`, and per band the band
+    // of its children (-1: none). The coder computes the relations from them, and the lists above
+    // stay empty: they would take 53 bytes a coefficient, 9 GB for the three planes of an
+    // 8192x8192 image.
+    int32_t grid_width = 0;
+    std::vector<GridBand> grid_bands;
+    std::vector<int32_t> grid_child_band;
 };
 
 // The mesh transform of a hierarchy down to T0 (lifting.h layout). A band's norm is the mean
@@ -47,11 +55,23 @@ struct CodingLayout {
 // Parents: the edge's endpoints, the face's corners (detail coefficients only).
 CodingLayout mesh_layout(const Hierarchy& hierarchy, double domain_area, int probes = 1);
 
+// How a fixed-grid layout gives its relations: computed by the coder from the bands' rectangles,
+// or listed as a mesh's are (the reference the computed ones are tested against).
+enum class GridRelations : uint8_t { computed, listed };
+
+// Whether the neighbour (dx, dy) of a coefficient in a grid band of GridBand::type `type` is a
+// primary one (EBCOT's: horizontal in LL and LH, vertical in HL, diagonal in HH).
+inline bool grid_primary(int type, int dx, int dy) {
+    return type == 3 ? (dx && dy) : type == 1 ? (!dx && dy) : (dx && !dy);
+}
+
 // The fixed-grid wavelet of a width x height plane (fixed_grid.h Mallat layout; grid_bands order).
 // Neighbours: the 8 around a coefficient inside its band, primary as in EBCOT: the horizontal
 // ones in LL and LH, the vertical ones in HL, the diagonal ones in HH. Parent: the coefficient of
-// the same orientation one level coarser.
+// the same orientation one level coarser, at (min(x / 2, w - 1), min(y / 2, h - 1)) in that band
+// of w x h.
 // Norms from centre impulses when `norms` (else 1, for decoders that read them).
-CodingLayout grid_layout(int width, int height, int levels, GridWavelet wavelet, bool norms = true);
+CodingLayout grid_layout(int width, int height, int levels, GridWavelet wavelet, bool norms = true,
+                         GridRelations relations = GridRelations::computed);
 
 }  // namespace tesswave
