@@ -1,5 +1,6 @@
 #include "cli.h"
 
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -21,18 +22,35 @@ namespace tesswave::cli {
 
 namespace {
 
-// An input inside the folder `dir` (through symlinks too): a folder output could replace it.
+// An input inside the folder `dir` (through symlinks too), or a file in it that is an input
+// under another name (a hard link): a folder output could replace it.
 void refuse_inputs_inside(const std::string& dir, const std::vector<std::string>& inputs) {
     namespace fs = std::filesystem;
     std::error_code ec;
     const fs::path folder = fs::weakly_canonical(dir, ec);
     if (ec || folder.empty()) return;
+    std::vector<std::pair<dev_t, ino_t>> linked;  // inputs with more than one name
     for (const auto& in : inputs) {
         if (in.empty() || !fs::exists(in, ec)) continue;
         const fs::path file = fs::canonical(in, ec);
         if (ec) continue;
         const auto [end, _] = std::mismatch(folder.begin(), folder.end(), file.begin(), file.end());
         if (end == folder.end()) throw Error(dir + ": output folder holds the input " + in);
+        struct stat st {};
+        if (::stat(file.c_str(), &st) == 0 && st.st_nlink > 1)
+            linked.emplace_back(st.st_dev, st.st_ino);
+    }
+    if (linked.empty() || !fs::is_directory(folder, ec)) return;
+    for (auto it = fs::recursive_directory_iterator(folder, ec); !ec && it != fs::end(it);
+         it.increment(ec)) {
+        struct stat st {};
+        if (::lstat(it->path().c_str(), &st) != 0 || !S_ISREG(st.st_mode)) continue;
+        for (const auto& [device, inode] : linked) {
+            if (st.st_dev == device && st.st_ino == inode) {
+                throw Error(str(dir, ": output folder holds ", it->path().string(),
+                                ", a hard link to an input"));
+            }
+        }
     }
 }
 

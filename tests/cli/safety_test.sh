@@ -78,6 +78,18 @@ if [[ $(md5sum <"$dir/d/resampled.png") == "$sum" ]]; then
 else
     fail "the hard-linked input changed"
 fi
+# An output folder that holds the input under another name (a hard link) is refused.
+mkdir -p "$dir/h2/sub"
+ln "$dir/d/resampled.png" "$dir/h2/sub/copy.png"
+status=0
+"$tesswave" analyze "$dir/d/resampled.png" -o "$dir/h2" -y --keep 10 >/dev/null 2>"$dir/err.txt" ||
+    status=$?
+if ((status == 1)) && grep -q "h2: output folder holds .*copy.png, a hard link to an input" \
+    "$dir/err.txt" && [[ $(find "$dir/h2" -type f | wc -l) == 1 ]]; then
+    pass "analyze into a folder holding a hard link of its input refused: $(cat "$dir/err.txt")"
+else
+    fail "analyze into a folder holding a hard link of its input: exit $status, $(cat "$dir/err.txt")"
+fi
 
 # Nothing dropped silently, every message names its file: a half-cut .mkv (libav reads it to its
 # end without an error), a 1x1 image for compare, and running out of memory.
