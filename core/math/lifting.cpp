@@ -75,7 +75,7 @@ struct TableStep {
 
 // The fast step: patch interiors by rows (levels with m >= 2), the rest by tables. A patch's
 // interior points depend only on its own faces, its interior edges and the skeleton vertices
-// around it, so each patch runs f', e', v' in one go while its rows are in cache:
+// around it, so each patch runs f', e', v' in one go, row by row (PatchStep::run):
 //   forward: per patch f', interior e', interior v'; then skeleton e' (its faces are done and its
 //            endpoints untouched), then skeleton v' (every e' and f' is done);
 //   inverse: skeleton v', skeleton e' (they read only primed values and restored skeleton
@@ -107,21 +107,13 @@ void fast_step(const LevelTopology& t, const PatchSides& ps, typename Rule::T* x
             min_patches);
     };
     if (forward) {
-        patches([](PatchStep<Rule>& patch, int32_t p) {
-            patch.template faces<1>(p);
-            patch.template edges<1>(p);
-            patch.template vertices<1>(p);
-        });
+        patches([](PatchStep<Rule>& patch, int32_t p) { patch.template run<1>(p); });
         table.edges(skeleton_edges);
         table.vertices();
     } else {
         table.vertices();
         table.edges(skeleton_edges);
-        patches([](PatchStep<Rule>& patch, int32_t p) {
-            patch.template vertices<-1>(p);
-            patch.template edges<-1>(p);
-            patch.template faces<-1>(p);
-        });
+        patches([](PatchStep<Rule>& patch, int32_t p) { patch.template run<-1>(p); });
     }
 }
 
