@@ -22,14 +22,22 @@ namespace tesswave::cli {
 
 namespace {
 
-// An input inside the folder `dir` (through symlinks too), or a file in it that is an input
-// under another name (a hard link): a folder output could replace it.
-void refuse_inputs_inside(const std::string& dir, const std::vector<std::string>& inputs) {
+// An input inside the folder `dir` (through symlinks too): a folder output could replace it.
+// With `walk`, also a file anywhere in the folder that is an input under another name (a hard
+// link): the output would take that name from the user's file. Subfolders it may not read are
+// skipped.
+void refuse_inputs_inside(const std::string& dir, const std::vector<std::string>& inputs,
+                          bool walk) {
     namespace fs = std::filesystem;
     std::error_code ec;
     const fs::path folder = fs::weakly_canonical(dir, ec);
     if (ec || folder.empty()) return;
-    std::vector<std::pair<dev_t, ino_t>> linked;  // inputs with more than one name
+    struct Linked {
+        dev_t device;
+        ino_t inode;
+        const std::string* name;
+    };
+    std::vector<Linked> linked;  // regular-file inputs with more than one name
     for (const auto& in : inputs) {
         if (in.empty() || !fs::exists(in, ec)) continue;
         const fs::path file = fs::canonical(in, ec);
@@ -37,18 +45,21 @@ void refuse_inputs_inside(const std::string& dir, const std::vector<std::string>
         const auto [end, _] = std::mismatch(folder.begin(), folder.end(), file.begin(), file.end());
         if (end == folder.end()) throw Error(dir + ": output folder holds the input " + in);
         struct stat st {};
-        if (::stat(file.c_str(), &st) == 0 && st.st_nlink > 1)
-            linked.emplace_back(st.st_dev, st.st_ino);
+        if (::stat(file.c_str(), &st) == 0 && S_ISREG(st.st_mode) && st.st_nlink > 1) {
+            linked.push_back({st.st_dev, st.st_ino, &in});
+        }
     }
-    if (linked.empty() || !fs::is_directory(folder, ec)) return;
-    for (auto it = fs::recursive_directory_iterator(folder, ec); !ec && it != fs::end(it);
-         it.increment(ec)) {
+    if (!walk || linked.empty() || !fs::is_directory(folder, ec)) return;
+    for (auto it = fs::recursive_directory_iterator(
+             folder, fs::directory_options::skip_permission_denied, ec);
+         !ec && it != fs::end(it); it.increment(ec)) {
         struct stat st {};
         if (::lstat(it->path().c_str(), &st) != 0 || !S_ISREG(st.st_mode)) continue;
-        for (const auto& [device, inode] : linked) {
-            if (st.st_dev == device && st.st_ino == inode) {
-                throw Error(str(dir, ": output folder holds ", it->path().string(),
-                                ", a hard link to an input"));
+        for (const Linked& l : linked) {
+            if (st.st_dev == l.device && st.st_ino == l.inode) {
+                const fs::path inside = it->path().lexically_relative(folder);
+                throw Error(str(dir, ": output folder holds ", inside.string(),
+                                ", a hard link to the input ", *l.name));
             }
         }
     }
@@ -64,7 +75,7 @@ void check_output(const std::string& path, bool overwrite, const std::vector<std
         if (fs::equivalent(in, path, ec)) throw Error(path + ": output would overwrite an input");
     }
     // A folder output (PNG frames) replaces the whole folder: no input may live inside it.
-    if (fs::is_directory(path, ec)) refuse_inputs_inside(path, inputs);
+    if (fs::is_directory(path, ec)) refuse_inputs_inside(path, inputs, overwrite);
     if (fs::exists(path, ec) && !overwrite) {
         throw Error(path + ": already exists (use -y to overwrite)");
     }
@@ -77,7 +88,8 @@ void check_output(const std::string& path, bool overwrite, const std::vector<std
 void check_folder(const std::string& dir, bool overwrite, const std::vector<std::string>& inputs) {
     namespace fs = std::filesystem;
     std::error_code ec;
-    refuse_inputs_inside(dir, inputs);
+    // Without -y a folder that is not empty is refused anyway: its files need no walk.
+    refuse_inputs_inside(dir, inputs, overwrite);
     if (fs::exists(dir, ec) && !fs::is_directory(dir, ec)) {
         throw Error(dir + ": exists and is not a folder");
     }

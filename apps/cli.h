@@ -23,13 +23,14 @@ void check_output(const std::string& path, bool overwrite,
 const char* transform_name(TwiTransform t);
 
 // Checks an output folder without creating it (call before any work, create when writing):
-// refuses one that holds any of `inputs` (symlinks resolved), whose files it could replace.
+// refuses one that holds any of `inputs` (symlinks resolved), whose files it could replace, or
+// with `overwrite` a hard link to one of them at any depth.
 void check_folder(const std::string& dir, bool overwrite,
                   const std::vector<std::string>& inputs = {});
 
 // An output folder: created if missing; an existing non-empty one needs -y (its files are then
 // overwritten one by one, each atomically). Refuses a path that is a file, and one that holds
-// any of `inputs`.
+// any of `inputs` (as check_folder).
 void prepare_folder(const std::string& dir, bool overwrite,
                     const std::vector<std::string>& inputs = {});
 

@@ -101,8 +101,13 @@ TEST(CodingLayout, computed_grid_layouts_hold_the_listed_order_and_bands) {
             EXPECT_EQ(c.bands[b].norm, l.bands[b].norm);
             const GridBand& g = c.grid_bands[b];
             EXPECT_EQ(c.bands[b].end - c.bands[b].begin, g.width * g.height);
+            // Detail bands above level 1 have children: the band three on, one level finer.
             const int32_t child = c.grid_child_band[b];
-            if (child < 0) continue;
+            if (g.type == 0 || g.level == 1) {
+                EXPECT_EQ(child, -1) << "band " << b;
+                continue;
+            }
+            ASSERT_EQ(child, static_cast<int32_t>(b) + 3) << "band " << b;
             EXPECT_EQ(c.grid_bands[child].type, g.type);
             EXPECT_EQ(c.grid_bands[child].level + 1, g.level);
         }

@@ -185,9 +185,9 @@ class Traversal {
         }
     }
     // visit(id, position) for each child of coefficient `id` at position k of the band being
-    // coded. On a grid, the parent of (x, y) in a w x h band is (min(x / 2, w - 1),
-    // min(y / 2, h - 1)) one level coarser, so the children of the last column or row reach to
-    // the end of the finer band.
+    // coded. On a grid, a coefficient (x, y) of a finer band has the parent
+    // (min(x / 2, w - 1), min(y / 2, h - 1)) in this w x h band, so the children of its last
+    // column or row reach to the end of the finer band.
     template <class Visit>
     void for_each_child(int32_t k, int32_t id, Visit&& visit) const {
         if (!grid_) {
@@ -212,7 +212,8 @@ class Traversal {
     }
 
     // A coefficient became significant: its neighbours count it (the relation is symmetric, and
-    // primary on both sides; coding_layout_test checks this).
+    // primary on both sides: coding_layout_test checks the lists, and on a computed grid
+    // grid_primary(t, dx, dy) equals grid_primary(t, -dx, -dy)).
     // Each neighbour not yet significant becomes a candidate of pass 0.
     void count_significant(uint8_t* near, const uint8_t* state, uint64_t* candidates,
                            int32_t k) const {
@@ -226,6 +227,7 @@ class Traversal {
             if (!(state[id] & kSignificant)) set_bit(candidates, position);
         });
     }
+    // Listed relations only: a computed grid's positions come from its bands' rectangles.
     int32_t position(int32_t id) const { return position_.empty() ? id : position_[id]; }
     static void set_bit(uint64_t* bits, int32_t k) { bits[k >> 6] |= uint64_t{1} << (k & 63); }
     static void clear_bit(uint64_t* bits, int32_t k) { bits[k >> 6] &= ~(uint64_t{1} << (k & 63)); }

@@ -39,8 +39,8 @@ struct CodingLayout {
     // Fixed-grid layouts without lists (grid_layout's default): the bands' rectangles in the
     // Mallat plane `grid_width` coefficients wide, one per entry of `bands`, and per band the band
     // of its children (-1: none). The coder computes the relations from them, and the lists above
-    // stay empty: they would take 53 bytes a coefficient, 9 GB for the three planes of an
-    // 8192x8192 image.
+    // stay empty: they would take 53 bytes a coefficient, 3.6 GB for an 8192x8192 plane (whose
+    // channels share them).
     int32_t grid_width = 0;
     std::vector<GridBand> grid_bands;
     std::vector<int32_t> grid_child_band;

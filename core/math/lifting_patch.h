@@ -29,7 +29,7 @@ class PatchStep {
           S_(ps.num_t1_edges * t.patch_cells),
           v0_(side_),
           v1_(side_),
-          vp_(side_),
+          v2_(side_),
           h0_(m_),
           h1_(m_),
           vt_(side_),
@@ -47,9 +47,9 @@ class PatchStep {
     //     primed), then the faces of row r - 1 (the edges and vertices around them restored).
     template <int kSign>
     void run(int32_t p) {
-        T* prev = vp_.data();
-        T* row = v0_.data();
-        T* next = v1_.data();
+        T* prev = v0_.data();  // vertex rows r - 1, r and r + 1, the buffers taking turns
+        T* row = v1_.data();
+        T* next = v2_.data();
         gather_row(p, 0, row);
         for (int32_t r = 0; r < m_; ++r) {
             if (kSign < 0 && r + 1 < m_) vertex_row<kSign>(p, r + 1);
@@ -149,7 +149,7 @@ class PatchStep {
     const PatchSides& ps_;
     T* x_;
     int32_t m_, side_, n_, E_, S_;
-    std::vector<T> v0_, v1_, vp_, h0_, h1_, vt_, inc_;
+    std::vector<T> v0_, v1_, v2_, h0_, h1_, vt_, inc_;
 };
 
 }  // namespace tesswave::detail

@@ -84,12 +84,18 @@ ln "$dir/d/resampled.png" "$dir/h2/sub/copy.png"
 status=0
 "$tesswave" analyze "$dir/d/resampled.png" -o "$dir/h2" -y --keep 10 >/dev/null 2>"$dir/err.txt" ||
     status=$?
-if ((status == 1)) && grep -q "h2: output folder holds .*copy.png, a hard link to an input" \
-    "$dir/err.txt" && [[ $(find "$dir/h2" -type f | wc -l) == 1 ]]; then
+if ((status == 1)) &&
+    grep -q "h2: output folder holds sub/copy.png, a hard link to the input .*d/resampled.png" \
+        "$dir/err.txt" && [[ $(find "$dir/h2" -type f | wc -l) == 1 ]]; then
     pass "analyze into a folder holding a hard link of its input refused: $(cat "$dir/err.txt")"
 else
     fail "analyze into a folder holding a hard link of its input: exit $status, $(cat "$dir/err.txt")"
 fi
+# The same input (now three names, none in the output folder) into a folder of other files.
+mkdir -p "$dir/h3/sub"
+cp "$dir/s/scene.png" "$dir/h3/sub/other.png"
+check "analyze a hard-linked input into a folder without its names" \
+    "$tesswave" analyze "$dir/d/resampled.png" -o "$dir/h3" -y --keep 10
 
 # Nothing dropped silently, every message names its file: a half-cut .mkv (libav reads it to its
 # end without an error), a 1x1 image for compare, and running out of memory.
