@@ -161,52 +161,72 @@ class Traversal {
         const int n = near[id];
         return 3 * std::min(n & 15, 2) + std::min(n >> 4, 2);
     }
-    // visit(id, position, primary) for each neighbour of the coefficient at position k of the
-    // band being coded: from the lists, or computed on a grid (the 8 around it inside its band).
+    // Listed relations: visit(id, position, primary) for each neighbour of the coefficient at
+    // position k.
     template <class Visit>
     void for_each_neighbour(int32_t k, Visit&& visit) const {
-        if (!grid_) {
-            const int32_t begin = layout_.nb_offsets[k], split = begin + layout_.nb_primary[k];
-            for (int32_t i = begin; i < layout_.nb_offsets[k + 1]; ++i) {
-                visit(layout_.nb[i], position(layout_.nb[i]), i < split);
-            }
-            return;
-        }
-        const GridBand& g = layout_.grid_bands[band_];
-        const int32_t r = k - layout_.bands[band_].begin, y = r / g.width, x = r - y * g.width;
-        const int32_t id = (g.y0 + y) * layout_.grid_width + g.x0 + x;
-        for (int dy = -1; dy <= 1; ++dy) {
-            if (y + dy < 0 || y + dy >= g.height) continue;
-            for (int dx = -1; dx <= 1; ++dx) {
-                if ((dx == 0 && dy == 0) || x + dx < 0 || x + dx >= g.width) continue;
-                visit(id + dy * layout_.grid_width + dx, k + dy * g.width + dx,
-                      grid_primary(g.type, dx, dy));
-            }
+        const int32_t begin = layout_.nb_offsets[k], split = begin + layout_.nb_primary[k];
+        for (int32_t i = begin; i < layout_.nb_offsets[k + 1]; ++i) {
+            visit(layout_.nb[i], position(layout_.nb[i]), i < split);
         }
     }
-    // visit(id, position) for each child of coefficient `id` at position k of the band being
-    // coded. On a grid, a coefficient (x, y) of a finer band has the parent
-    // (min(x / 2, w - 1), min(y / 2, h - 1)) in this w x h band, so the children of its last
-    // column or row reach to the end of the finer band.
+
+    // Grid layouts: where the coefficient at position k of the band being coded sits in it.
+    struct GridSpot {
+        int32_t x, y, id, k;
+    };
+    GridSpot grid_spot(int32_t k) const {
+        const GridBand& g = layout_.grid_bands[band_];
+        const int32_t r = k - layout_.bands[band_].begin, y = r / g.width, x = r - y * g.width;
+        return {x, y, (g.y0 + y) * layout_.grid_width + g.x0 + x, k};
+    }
+    // visit(id, position, add) for the 8 around `at` inside its band, where add is what the
+    // neighbour's count gains (1 primary, 16 other).
     template <class Visit>
-    void for_each_child(int32_t k, int32_t id, Visit&& visit) const {
-        if (!grid_) {
-            for (int32_t i = layout_.ch_offsets[id]; i < layout_.ch_offsets[id + 1]; ++i) {
-                visit(layout_.ch[i], position(layout_.ch[i]));
-            }
+    void grid_neighbours(const GridSpot& at, Visit&& visit) const {
+        const GridBand& g = layout_.grid_bands[band_];
+        const GridStar& s = star_;
+        if (at.x > 0 && at.y > 0 && at.x + 1 < g.width && at.y + 1 < g.height) {
+            for (int i = 0; i < 8; ++i) visit(at.id + s.id[i], at.k + s.position[i], s.add[i]);
             return;
         }
+        for (int i = 0; i < 8; ++i) {
+            const int32_t x = at.x + s.dx[i], y = at.y + s.dy[i];
+            if (x < 0 || y < 0 || x >= g.width || y >= g.height) continue;
+            visit(at.id + s.id[i], at.k + s.position[i], s.add[i]);
+        }
+    }
+    // visit(id, position) for each child of `at`. A coefficient (x, y) of the finer band has the
+    // parent (min(x / 2, w - 1), min(y / 2, h - 1)) in this w x h band, so the children of its
+    // last column or row reach to the end of the finer band.
+    template <class Visit>
+    void grid_children(const GridSpot& at, Visit&& visit) const {
         const int32_t cb = layout_.grid_child_band[band_];
         if (cb < 0) return;
         const GridBand& g = layout_.grid_bands[band_];
         const GridBand& f = layout_.grid_bands[cb];
-        const int32_t r = k - layout_.bands[band_].begin, y = r / g.width, x = r - y * g.width;
-        const int32_t x1 = x + 1 == g.width ? f.width : std::min(2 * x + 2, f.width);
-        const int32_t y1 = y + 1 == g.height ? f.height : std::min(2 * y + 2, f.height);
-        for (int32_t fy = 2 * y; fy < y1; ++fy) {
-            for (int32_t fx = 2 * x; fx < x1; ++fx) {
+        const int32_t x1 = at.x + 1 == g.width ? f.width : std::min(2 * at.x + 2, f.width);
+        const int32_t y1 = at.y + 1 == g.height ? f.height : std::min(2 * at.y + 2, f.height);
+        for (int32_t fy = 2 * at.y; fy < y1; ++fy) {
+            for (int32_t fx = 2 * at.x; fx < x1; ++fx) {
                 visit((f.y0 + fy) * layout_.grid_width + f.x0 + fx,
                       layout_.bands[cb].begin + fy * f.width + fx);
+            }
+        }
+    }
+    // The band's 8 neighbour offsets (as ids and as positions) and what each adds to counts.
+    void set_grid_star() {
+        const GridBand& g = layout_.grid_bands[band_];
+        int i = 0;
+        for (int dy = -1; dy <= 1; ++dy) {
+            for (int dx = -1; dx <= 1; ++dx) {
+                if (dx == 0 && dy == 0) continue;
+                star_.dx[i] = static_cast<int8_t>(dx);
+                star_.dy[i] = static_cast<int8_t>(dy);
+                star_.id[i] = dy * layout_.grid_width + dx;
+                star_.position[i] = dy * g.width + dx;
+                star_.add[i] = grid_primary(g.type, dx, dy) ? 1 : 16;
+                ++i;
             }
         }
     }
@@ -275,6 +295,7 @@ class Traversal {
     // Codes the sign of a coefficient whose bit p is its first 1, and records it significant.
     bool become_significant(BandModels& m, uint8_t* state, int32_t k, int32_t id, int p,
                             int32_t& v) {
+        if (grid_) return become_significant_on_grid(m, state, k, p, v);
         const int negative = side_.bit(m.sign[sign_context(state, k)], v < 0);
         if (side_.stopped()) return false;
         state[id] |= kSignificant | (negative ? kNegative : 0);
@@ -282,9 +303,40 @@ class Traversal {
         clear_bit(candidates, k);
         set_bit(significant_[c_].data(), k);
         count_significant(near_[c_].data(), state, candidates, k);
-        for_each_child(k, id, [&](int32_t child, int32_t position) {
+        for (int32_t i = layout_.ch_offsets[id]; i < layout_.ch_offsets[id + 1]; ++i) {
+            const int32_t child = layout_.ch[i];
             state[child] |= kParent;
-            if (!(state[child] & kSignificant)) set_bit(candidates, position);
+            if (!(state[child] & kSignificant)) set_bit(candidates, position(child));
+        }
+        if constexpr (std::is_same_v<Side, DecodeSide>) v = negative ? -(1 << p) : 1 << p;
+        return true;
+    }
+    // The same on a grid, its place in the band found once and its neighbours' updates without
+    // branches (at most 8 neighbours: the counts never reach their cap of 15).
+    bool become_significant_on_grid(BandModels& m, uint8_t* state, int32_t k, int p, int32_t& v) {
+        const GridSpot at = grid_spot(k);
+        int net = 0;
+        grid_neighbours(at, [&](int32_t n, int32_t, uint8_t) {
+            const int s = state[n];
+            net += (s & kSignificant) * (1 - (s & kNegative));  // +1, -1, or 0 if not significant
+        });
+        const int negative = side_.bit(m.sign[net < 0 ? 0 : net == 0 ? 1 : 2], v < 0);
+        if (side_.stopped()) return false;
+        state[at.id] |= kSignificant | (negative ? kNegative : 0);
+        uint64_t* candidates = candidates_[c_].data();
+        uint8_t* near = near_[c_].data();
+        clear_bit(candidates, k);
+        set_bit(significant_[c_].data(), k);
+        const auto mark = [&](int32_t n, int32_t position) {
+            candidates[position >> 6] |= uint64_t{!(state[n] & kSignificant)} << (position & 63);
+        };
+        grid_neighbours(at, [&](int32_t n, int32_t position, uint8_t add) {
+            near[n] = static_cast<uint8_t>(near[n] + add);
+            mark(n, position);
+        });
+        grid_children(at, [&](int32_t child, int32_t position) {
+            state[child] |= kParent;
+            mark(child, position);
         });
         if constexpr (std::is_same_v<Side, DecodeSide>) v = negative ? -(1 << p) : 1 << p;
         return true;
@@ -337,6 +389,10 @@ class Traversal {
         uint8_t* known = known_[c].data();
         const uint8_t* near = near_[c].data();
         c_ = c;
+        if (band_ != b && grid_) {
+            band_ = b;
+            set_grid_star();
+        }
         band_ = b;
         if (pass == 0) {
             // Significance where a neighbour or parent is significant: the candidates, which are
@@ -395,7 +451,15 @@ class Traversal {
     std::vector<std::vector<uint64_t>> candidates_, significant_;
     std::vector<int32_t> position_;  // of each coefficient id in `order` (empty: the identity)
     int c_ = 0;                      // the channel being coded
-    int band_ = 0;                   // and the band
+    int band_ = -1;                  // and the band
+    // Grid layouts, the band being coded: its 8 neighbour offsets as ids and as positions, their
+    // steps, and what each adds to a neighbour's counts (1 primary, 16 other).
+    struct GridStar {
+        int32_t id[8], position[8];
+        int8_t dx[8], dy[8];
+        uint8_t add[8];
+    };
+    GridStar star_{};
     std::vector<BandModels> models_;
     bool grid_;  // the relations are computed from the layout's grid bands
 };
