@@ -77,19 +77,22 @@ class DecodeSide {
 template <class Side>
 class Traversal {
   public:
+    // The coefficients: read by the encoder from its input, filled in by the decoder.
+    using Value = std::conditional_t<std::is_same_v<Side, DecodeSide>, int32_t, const int32_t>;
+
     Traversal(const CodingLayout& layout, const PlaneCounts& planes, const BitplaneOptions& options,
-              std::vector<std::vector<int32_t>>& value, std::vector<std::vector<uint8_t>>& known,
+              std::vector<std::span<Value>> value, std::vector<std::vector<uint8_t>>& known,
               Side& side)
         : layout_(layout),
           planes_(planes),
           options_(options),
-          value_(value),
+          value_(std::move(value)),
           known_(known),
           side_(side),
-          state_(value.size(), std::vector<uint8_t>(layout.size, 0)),
-          near_(value.size(), std::vector<uint8_t>(layout.size, 0)),
-          candidates_(value.size(), std::vector<uint64_t>((layout.size + 63) / 64, 0)),
-          significant_(value.size(), std::vector<uint64_t>((layout.size + 63) / 64, 0)),
+          state_(value_.size(), std::vector<uint8_t>(layout.size, 0)),
+          near_(value_.size(), std::vector<uint8_t>(layout.size, 0)),
+          candidates_(value_.size(), std::vector<uint64_t>((layout.size + 63) / 64, 0)),
+          significant_(value_.size(), std::vector<uint64_t>((layout.size + 63) / 64, 0)),
           models_(layout.bands.size() * 4),
           grid_(!layout.grid_bands.empty()) {
         if (!options.fast_start) {
@@ -283,7 +286,7 @@ class Traversal {
 
     // Codes bit p of a coefficient not yet significant; false when the side stopped.
     bool significance(BandModels& m, uint8_t* state, int32_t k, int32_t id, int p, int nb, int pa,
-                      int32_t& v, uint8_t& known) {
+                      Value& v, uint8_t& known) {
         const int bit = side_.bit(m.significance[pa][nb / 3][nb % 3], (std::abs(v) >> p) & 1);
         if (side_.stopped()) return false;
         // Known only once settled: a stream cut before the sign leaves the coefficient unknown.
@@ -293,8 +296,7 @@ class Traversal {
     }
 
     // Codes the sign of a coefficient whose bit p is its first 1, and records it significant.
-    bool become_significant(BandModels& m, uint8_t* state, int32_t k, int32_t id, int p,
-                            int32_t& v) {
+    bool become_significant(BandModels& m, uint8_t* state, int32_t k, int32_t id, int p, Value& v) {
         if (grid_) return become_significant_on_grid(m, state, k, p, v);
         const int negative = side_.bit(m.sign[sign_context(state, k)], v < 0);
         if (side_.stopped()) return false;
@@ -313,7 +315,7 @@ class Traversal {
     }
     // The same on a grid, its place in the band found once and its neighbours' updates without
     // branches (at most 8 neighbours: the counts never reach their cap of 15).
-    bool become_significant_on_grid(BandModels& m, uint8_t* state, int32_t k, int p, int32_t& v) {
+    bool become_significant_on_grid(BandModels& m, uint8_t* state, int32_t k, int p, Value& v) {
         const GridSpot at = grid_spot(k);
         int net = 0;
         grid_neighbours(at, [&](int32_t n, int32_t, uint8_t) {
@@ -358,7 +360,7 @@ class Traversal {
     // Run mode (EBCOT's): one decision for kRun isolated coefficients; when one of them turns
     // significant, the position of the first (2 bits) and its sign. Returns how many
     // coefficients it settled (0 when the side stopped).
-    int run(BandModels& m, uint8_t* state, int32_t* value, uint8_t* known, int32_t k, int p) {
+    int run(BandModels& m, uint8_t* state, Value* value, uint8_t* known, int32_t k, int p) {
         int first = kRun;
         if constexpr (std::is_same_v<Side, EncodeSide>) {
             for (int i = kRun - 1; i >= 0; --i) {
@@ -385,7 +387,7 @@ class Traversal {
         const CodingBand& band = layout_.bands[b];
         BandModels& m = models_[model_group(b) * 4 + channel_class(c)];
         uint8_t* state = state_[c].data();
-        int32_t* value = value_[c].data();
+        Value* value = value_[c].data();
         uint8_t* known = known_[c].data();
         const uint8_t* near = near_[c].data();
         c_ = c;
@@ -441,7 +443,7 @@ class Traversal {
     const CodingLayout& layout_;
     const PlaneCounts& planes_;
     const BitplaneOptions& options_;
-    std::vector<std::vector<int32_t>>& value_;
+    std::vector<std::span<Value>> value_;
     std::vector<std::vector<uint8_t>>& known_;
     Side& side_;
     std::vector<std::vector<uint8_t>> state_;
@@ -504,16 +506,14 @@ std::vector<uint8_t> encode_bitplanes(const CodingLayout& layout,
                                       const PlaneCounts& planes, const BitplaneOptions& options) {
     check_planes(layout, planes, options);
     if (planes.size() != q.size()) throw Error("bit-plane coder: one plane count per channel");
-    std::vector<std::vector<int32_t>> value;
     for (auto plane : q) {
         if (static_cast<int32_t>(plane.size()) != layout.size) {
             throw Error("bit-plane coder: plane size does not match the layout");
         }
-        value.emplace_back(plane.begin(), plane.end());
     }
     std::vector<std::vector<uint8_t>> known(q.size(), std::vector<uint8_t>(layout.size, kNone));
     EncodeSide side(options.max_bytes);
-    Traversal<EncodeSide>(layout, planes, options, value, known, side).run();
+    Traversal<EncodeSide>(layout, planes, options, {q.begin(), q.end()}, known, side).run();
     return side.finish();
 }
 
@@ -524,7 +524,9 @@ DecodedPlanes decode_bitplanes(const CodingLayout& layout, const PlaneCounts& pl
     out.value.assign(planes.size(), std::vector<int32_t>(layout.size, 0));
     out.known.assign(planes.size(), std::vector<uint8_t>(layout.size, kNone));
     DecodeSide side(stream);
-    out.complete = Traversal<DecodeSide>(layout, planes, options, out.value, out.known, side).run();
+    out.complete = Traversal<DecodeSide>(layout, planes, options,
+                                         {out.value.begin(), out.value.end()}, out.known, side)
+                       .run();
     return out;
 }
 

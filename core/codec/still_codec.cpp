@@ -128,12 +128,13 @@ IntPlanes integer_values(const DecodedPlanes& d) {
 
 Image reconstruct(const CodingDomain& domain, const TwiHeader& h, std::span<const uint8_t> stream) {
     const BitplaneOptions bo{.shifts = h.shifts, .fast_start = h.version >= 2};
-    const DecodedPlanes d = decode_bitplanes(domain.layout(), h.planes, stream, bo);
+    DecodedPlanes d = decode_bitplanes(domain.layout(), h.planes, stream, bo);
     if (h.lossless) return domain.synthesize_int(integer_values(d));
     Planes x(h.channels, std::vector<float>(domain.size()));
     for (int c = 0; c < h.channels; ++c) {
         dequantize(domain.layout(), d, c, domain.band_steps(c, h.base_step), false, x[c]);
     }
+    d = {};  // freed before the synthesis needs its planes
     return domain.synthesize(std::move(x));
 }
 
@@ -161,9 +162,10 @@ struct Coded {
     size_t bytes() const { return head.size() + stream.size(); }
 };
 
-// Quantizes and codes coefficients `q`, then applies the rate control of `o`.
-Coded code(const CodingDomain& domain, const TwiHeader& base, const IntPlanes& q,
-           const Image& image, const StillOptions& o, bool measure) {
+// Codes quantized coefficients `q` (freed once coded, before any reconstruction), then applies
+// the rate control of `o`.
+Coded code(const CodingDomain& domain, const TwiHeader& base, IntPlanes q, const Image& image,
+           const StillOptions& o, bool measure) {
     Coded c;
     TwiHeader& h = c.header;
     h = base;
@@ -179,6 +181,7 @@ Coded code(const CodingDomain& domain, const TwiHeader& base, const IntPlanes& q
         bo.max_bytes = o.max_bytes - c.head.size();
     }
     c.stream = encode_bitplanes(domain.layout(), const_spans(q), h.planes, bo);
+    q = {};
     if (c.stream.size() > bo.max_bytes) c.stream.resize(bo.max_bytes);
     c.full = c.stream;
     const int depth = h.bit_depth;
@@ -322,14 +325,14 @@ StillResult compress_image(const Image& image, const StillOptions& o) {
     for (const CodingBand& b : layout.bands) h.band_norms.push_back(static_cast<float>(b.norm));
     if (o.lossless) {
         progress(o, 0.3, "transforming");
-        const IntPlanes q = domain.analyze_int(image);
+        IntPlanes q = domain.analyze_int(image);
         const float smallest = *std::min_element(h.band_norms.begin(), h.band_norms.end());
         for (float n : h.band_norms) {
             h.shifts.push_back(
                 std::clamp(static_cast<int>(std::lround(std::log2(n / smallest))), 0, 32));
         }
         progress(o, 0.5, "coding");
-        Coded c = code(domain, h, q, image, o, o.measure);
+        Coded c = code(domain, h, std::move(q), image, o, o.measure);
         meet_size_floor(c, domain, image, o);
         result.header = c.header;
         result.psnr = c.psnr;
@@ -358,16 +361,20 @@ StillResult compress_image(const Image& image, const StillOptions& o) {
         return progress_range(o.progress, 0.05 + 0.85 * k / choices.size(),
                               0.05 + 0.85 * (k + 1) / choices.size());
     };
-    const auto code_choice = [&](size_t k, const Planes& x) {
+    // Consumes the coefficients `x` (analyze_fits lets its callback do so): at the reconstructions
+    // only the image, the stream and the decoder's planes are held.
+    const auto code_choice = [&](size_t k, Planes& x) {
         IntPlanes q(h.channels, std::vector<int32_t>(layout.size, 0));
         for (int c = 0; c < h.channels; ++c) {
             quantize(layout, x[c], domain.band_steps(c, h.base_step), q[c]);
         }
+        x = {};
         report(part(k), 0.4, "coding");
-        coded.push_back(code(domain, h, q, image, o, o.measure || choices.size() > 1));
+        coded.push_back(code(domain, h, std::move(q), image, o, o.measure || choices.size() > 1));
     };
     report(part(0), 0.0, "sampling");
-    code_choice(0, domain.analyze(image, Sampling::point));
+    Planes point = domain.analyze(image, Sampling::point);
+    code_choice(0, point);
     // The projections, one after the other from one assembly (analyze_fits).
     std::vector<double> smoothness;
     for (size_t k = 1; k < choices.size(); ++k) smoothness.push_back(choices[k].smoothness);
