@@ -391,11 +391,10 @@ class Traversal {
         uint8_t* known = known_[c].data();
         const uint8_t* near = near_[c].data();
         c_ = c;
-        if (band_ != b && grid_) {
+        if (band_ != b) {
             band_ = b;
-            set_grid_star();
+            if (grid_) set_grid_star();
         }
-        band_ = b;
         if (pass == 0) {
             // Significance where a neighbour or parent is significant: the candidates, which are
             // exactly the coefficients not significant with a significant neighbour or parent.
