@@ -2,14 +2,18 @@
 
 #include <gtest/gtest.h>
 
+#include <bit>
 #include <cmath>
+#include <cstring>
 #include <limits>
+#include <random>
 
 #include "core/math/error.h"
 #include "core/math/grid_mesh.h"
 #include "core/math/lifting.h"
 #include "core/math/metrics.h"
 #include "core/math/parallel.h"
+#include "core/math/project_grids.h"
 #include "core/math/render.h"
 #include "core/math/sampling.h"
 #include "core/math/voronoi.h"
@@ -226,6 +230,73 @@ TEST(Project, bad_options_throw) {
     EXPECT_THROW(project_image(image, h, mesh.vertices, {.anchor = anchor}), Error);
     EXPECT_THROW(sampling_from_name("exact"), Error);
     EXPECT_EQ(sampling_from_name(sampling_name(Sampling::fit)), Sampling::fit);
+}
+
+}  // namespace
+}  // namespace tesswave
+
+namespace tesswave {
+namespace {
+
+// Values spread over many binary orders of magnitude, so that any change in the order of the
+// additions (or a fused multiply-add) changes the rounded results.
+std::vector<float> spread_values(size_t n, std::mt19937& rng) {
+    std::uniform_real_distribution<float> mantissa(-1.0f, 1.0f);
+    std::uniform_int_distribution<int> exponent(-12, 12);
+    std::vector<float> v(n);
+    for (float& x : v) x = std::ldexp(mantissa(rng), exponent(rng));
+    return v;
+}
+
+bool same_bits(const std::vector<float>& a, const std::vector<float>& b) {
+    return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(float)) == 0;
+}
+
+TEST(ProjectKernels, avx2_and_baseline_builds_give_the_same_bits) {
+    const detail::VectorKernels* avx2 = detail::avx2_kernels();
+    if (avx2 == nullptr) GTEST_SKIP() << "this machine has no AVX2: one build only";
+    const detail::VectorKernels& base = detail::baseline_kernels();
+    std::mt19937 rng(7);
+    for (const int32_t n : {1, 3, 7, 8, 9, 15, 16, 17, 33, 64, 1089, 4097}) {
+        SCOPED_TRACE(n);
+        // The stencil product on a row of n nodes of a grid 33 wide, read with its neighbours.
+        const int32_t side = 33, margin = side + 1;
+        const int32_t offset[9] = {-side - 1, -side, -side + 1, -1, 0, 1, side - 1, side, side + 1};
+        std::vector<std::vector<float>> entries(9);
+        const float* st[9];
+        for (int e = 0; e < 9; ++e) st[e] = (entries[e] = spread_values(n, rng)).data();
+        const std::vector<float> g = spread_values(n + 2 * margin, rng);
+        std::vector<float> o_base(n), o_avx2(n);
+        base.stencil_row(st, g.data() + margin, offset, n, o_base.data());
+        avx2->stencil_row(st, g.data() + margin, offset, n, o_avx2.data());
+        EXPECT_TRUE(same_bits(o_base, o_avx2));
+
+        const std::vector<float> a = spread_values(n, rng), b = spread_values(n, rng);
+        std::vector<float> owner(n);
+        for (int32_t k = 0; k < n; ++k) owner[k] = (k % 5 == 3) ? 0.0f : 1.0f;
+        EXPECT_EQ(std::bit_cast<uint64_t>(base.dot(a.data(), b.data(), owner.data(), n)),
+                  std::bit_cast<uint64_t>(avx2->dot(a.data(), b.data(), owner.data(), n)));
+
+        const std::vector<float> p = spread_values(n, rng), ap = spread_values(n, rng);
+        const std::vector<float> inverse = spread_values(n, rng);
+        std::vector<float> x_base = spread_values(n, rng), r_base = spread_values(n, rng);
+        std::vector<float> x_avx2 = x_base, r_avx2 = r_base;
+        const auto [rz_base, rr_base] =
+            base.step_channel(0.37f, x_base.data(), r_base.data(), p.data(), ap.data(),
+                              inverse.data(), owner.data(), n);
+        const auto [rz_avx2, rr_avx2] =
+            avx2->step_channel(0.37f, x_avx2.data(), r_avx2.data(), p.data(), ap.data(),
+                               inverse.data(), owner.data(), n);
+        EXPECT_TRUE(same_bits(x_base, x_avx2));
+        EXPECT_TRUE(same_bits(r_base, r_avx2));
+        EXPECT_EQ(std::bit_cast<uint64_t>(rz_base), std::bit_cast<uint64_t>(rz_avx2));
+        EXPECT_EQ(std::bit_cast<uint64_t>(rr_base), std::bit_cast<uint64_t>(rr_avx2));
+
+        std::vector<float> p_base = p, p_avx2 = p;
+        base.next_direction(0.61f, r_base.data(), inverse.data(), p_base.data(), n);
+        avx2->next_direction(0.61f, r_base.data(), inverse.data(), p_avx2.data(), n);
+        EXPECT_TRUE(same_bits(p_base, p_avx2));
+    }
 }
 
 }  // namespace

@@ -22,12 +22,10 @@ using detail::from_local;
 using detail::LocalGrids;
 using detail::make_local;
 using detail::multiply;
-using detail::next_direction;
 using detail::NormalMatrix;
 using detail::Planes;
 using detail::SharedNodes;
 using detail::stencil_entry;
-using detail::step_channel;
 using detail::to_local;
 
 // Zeroes the stencils and adds the data term (and the right-hand side R^T M I) of every pixel the
@@ -279,6 +277,7 @@ void Solver::solve(double smoothness, Projection& result) {
         result.residual = std::max(result.residual, relative);
         if (relative > o_.tolerance) active.push_back(c);
     }
+    const detail::VectorKernels& kernels = detail::vector_kernels();
     while (!active.empty() && result.iterations < o_.max_iterations) {
         ++result.iterations;
         multiply(A_, shared_, g, p, Ap, active, products);
@@ -293,11 +292,11 @@ void Solver::solve(double smoothness, Projection& result) {
                 const float step = static_cast<float>(rz[c] / pAp);
                 float* __restrict rc = r[c].data();
                 float* __restrict pc = p[c].data();
-                const auto [rz_next, rr] = step_channel(step, x[c].data(), rc, pc, Ap[c].data(),
-                                                        inverse.data(), owner.data(), size);
+                const auto [rz_next, rr] = kernels.step_channel(
+                    step, x[c].data(), rc, pc, Ap[c].data(), inverse.data(), owner.data(), size);
                 const float beta = static_cast<float>(rz_next / rz[c]);
                 rz[c] = rz_next;
-                next_direction(beta, rc, inverse.data(), pc, size);
+                kernels.next_direction(beta, rc, inverse.data(), pc, size);
                 relative[a] = std::sqrt(rr) / norm_b[c];
             }
         });

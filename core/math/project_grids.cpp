@@ -4,24 +4,18 @@
 
 #include "core/math/parallel.h"
 
-// The hot loops below are compiled twice on x86-64, for AVX2 and for the baseline, and picked at
-// load time (elsewhere they are compiled once).
-#if defined(__x86_64__)
-#define TESSWAVE_AVX2_CLONES [[gnu::target_clones("avx2", "default")]]
-#else
-#define TESSWAVE_AVX2_CLONES
-#endif
-
 namespace tesswave::detail {
 namespace {
 
+// The kernels' bodies, inlined into one build per instruction set below. Each does its float and
+// double operations in a fixed order (and the build has no fused multiply-add), so that every
+// build gives the same bits.
+
 // o[c] = sum over the nine entries e of st[e][c] g[c + offset[e]], c < n, each sum made in entry
-// order. Compiled twice, for AVX2 and for the baseline x86-64, and picked at load time: the
-// vectorized rows run 8 lanes wide where the machine has them. Both versions do the same float
-// multiplications and additions in the same order (no fused multiply-add), so the results are the
-// same to the bit on any machine.
-TESSWAVE_AVX2_CLONES void stencil_row(const float* const* st, const float* g, const int32_t* offset,
-                                      int32_t n, float* __restrict o) {
+// order; the rows vectorize 8 lanes wide where the machine has them.
+[[gnu::always_inline]] inline void stencil_row_body(const float* const* st, const float* g,
+                                                    const int32_t* offset, int32_t n,
+                                                    float* __restrict o) {
     const float* __restrict s0 = st[0];
     const float* __restrict s1 = st[1];
     const float* __restrict s2 = st[2];
@@ -55,8 +49,8 @@ TESSWAVE_AVX2_CLONES void stencil_row(const float* const* st, const float* g, co
     }
 }
 
-TESSWAVE_AVX2_CLONES double dot(const float* __restrict a, const float* __restrict b,
-                                const float* __restrict owner, size_t n) {
+[[gnu::always_inline]] inline double dot_body(const float* __restrict a, const float* __restrict b,
+                                              const float* __restrict owner, size_t n) {
     double sum[4] = {0, 0, 0, 0};
     const size_t whole = n - n % 4;
     for (size_t k = 0; k < whole; k += 4) {
@@ -67,7 +61,80 @@ TESSWAVE_AVX2_CLONES double dot(const float* __restrict a, const float* __restri
     return (sum[0] + sum[1]) + (sum[2] + sum[3]);
 }
 
+[[gnu::always_inline]] inline std::pair<double, double> step_channel_body(
+    float step, float* __restrict x, float* __restrict r, const float* __restrict p,
+    const float* __restrict ap, const float* __restrict inverse, const float* __restrict owner,
+    size_t n) {
+    double rz[4] = {0, 0, 0, 0}, rr[4] = {0, 0, 0, 0};
+    const size_t whole = n - n % 4;
+    for (size_t k = 0; k < whole; k += 4) {
+        for (int i = 0; i < 4; ++i) {
+            x[k + i] += step * p[k + i];
+            r[k + i] -= step * ap[k + i];
+            const double v = r[k + i] * owner[k + i];
+            rz[i] += v * (r[k + i] * inverse[k + i]);
+            rr[i] += v * r[k + i];
+        }
+    }
+    for (size_t k = whole; k < n; ++k) {
+        x[k] += step * p[k];
+        r[k] -= step * ap[k];
+        const double v = r[k] * owner[k];
+        rz[k % 4] += v * (r[k] * inverse[k]);
+        rr[k % 4] += v * r[k];
+    }
+    return {(rz[0] + rz[1]) + (rz[2] + rz[3]), (rr[0] + rr[1]) + (rr[2] + rr[3])};
+}
+
+[[gnu::always_inline]] inline void next_direction_body(float beta, const float* __restrict r,
+                                                       const float* __restrict inverse,
+                                                       float* __restrict p, size_t n) {
+    for (size_t k = 0; k < n; ++k) p[k] = r[k] * inverse[k] + beta * p[k];
+}
+
+// One build of the four kernels per instruction set: TESSWAVE_KERNELS(suffix, attributes...).
+#define TESSWAVE_KERNELS(suffix, ...)                                                          \
+    __VA_ARGS__ void stencil_row_##suffix(const float* const* st, const float* g,              \
+                                          const int32_t* offset, int32_t n, float* o) {        \
+        stencil_row_body(st, g, offset, n, o);                                                 \
+    }                                                                                          \
+    __VA_ARGS__ double dot_##suffix(const float* a, const float* b, const float* owner,        \
+                                    size_t n) {                                                \
+        return dot_body(a, b, owner, n);                                                       \
+    }                                                                                          \
+    __VA_ARGS__ std::pair<double, double> step_channel_##suffix(                               \
+        float step, float* x, float* r, const float* p, const float* ap, const float* inverse, \
+        const float* owner, size_t n) {                                                        \
+        return step_channel_body(step, x, r, p, ap, inverse, owner, n);                        \
+    }                                                                                          \
+    __VA_ARGS__ void next_direction_##suffix(float beta, const float* r, const float* inverse, \
+                                             float* p, size_t n) {                             \
+        next_direction_body(beta, r, inverse, p, n);                                           \
+    }                                                                                          \
+    constexpr VectorKernels kernels_##suffix = {stencil_row_##suffix, dot_##suffix,            \
+                                                step_channel_##suffix, next_direction_##suffix};
+
+TESSWAVE_KERNELS(baseline)
+#if defined(__x86_64__)
+TESSWAVE_KERNELS(avx2, [[gnu::target("avx2")]])
+#endif
+#undef TESSWAVE_KERNELS
+
 }  // namespace
+
+const VectorKernels& baseline_kernels() { return kernels_baseline; }
+
+const VectorKernels* avx2_kernels() {
+#if defined(__x86_64__)
+    if (__builtin_cpu_supports("avx2")) return &kernels_avx2;
+#endif
+    return nullptr;
+}
+
+const VectorKernels& vector_kernels() {
+    static const VectorKernels& picked = avx2_kernels() ? *avx2_kernels() : baseline_kernels();
+    return picked;
+}
 
 SharedNodes find_shared(const NormalMatrix& A, size_t samples) {
     std::vector<uint8_t> count(samples, 0);
@@ -166,6 +233,7 @@ void multiply(const NormalMatrix& A, const SharedNodes& s, const LocalGrids& g, 
     const size_t n = active.size(), shared = s.k.size();
     products.resize(n * shared);
     const float alpha = static_cast<float>(A.alpha);
+    const VectorKernels& kernels = vector_kernels();
     const int32_t offset[9] = {-side - 1, -side, -side + 1, -1, 0, 1, side - 1, side, side + 1};
     parallel_for(static_cast<int64_t>(A.quads), [&](int64_t begin, int64_t end) {
         for (auto q = static_cast<size_t>(begin); q < static_cast<size_t>(end); ++q) {
@@ -174,7 +242,7 @@ void multiply(const NormalMatrix& A, const SharedNodes& s, const LocalGrids& g, 
             for (size_t a = 0; a < n; ++a) {
                 const float* __restrict xq = x[active[a]].data() + g.index(q, 0);
                 float* __restrict yq = y[active[a]].data() + g.index(q, 0);
-                stencil_row(st, xq, offset, grid_size, yq);  // the whole grid as one row
+                kernels.stencil_row(st, xq, offset, grid_size, yq);  // the whole grid as one row
                 float* stash = products.data() + a * shared;
                 for (int32_t i = s.offsets[q]; i < s.offsets[q + 1]; ++i) stash[i] = yq[s.k[i]];
                 for (int32_t k = 0; k < grid_size; ++k) yq[k] = alpha * xq[k] + yq[k];
@@ -202,38 +270,7 @@ void multiply(const NormalMatrix& A, const SharedNodes& s, const LocalGrids& g, 
 
 double dot(const std::vector<float>& a, const std::vector<float>& b,
            const std::vector<float>& owner) {
-    return dot(a.data(), b.data(), owner.data(), a.size());
-}
-
-TESSWAVE_AVX2_CLONES std::pair<double, double> step_channel(
-    float step, float* __restrict x, float* __restrict r, const float* __restrict p,
-    const float* __restrict ap, const float* __restrict inverse, const float* __restrict owner,
-    size_t n) {
-    double rz[4] = {0, 0, 0, 0}, rr[4] = {0, 0, 0, 0};
-    const size_t whole = n - n % 4;
-    for (size_t k = 0; k < whole; k += 4) {
-        for (int i = 0; i < 4; ++i) {
-            x[k + i] += step * p[k + i];
-            r[k + i] -= step * ap[k + i];
-            const double v = r[k + i] * owner[k + i];
-            rz[i] += v * (r[k + i] * inverse[k + i]);
-            rr[i] += v * r[k + i];
-        }
-    }
-    for (size_t k = whole; k < n; ++k) {
-        x[k] += step * p[k];
-        r[k] -= step * ap[k];
-        const double v = r[k] * owner[k];
-        rz[k % 4] += v * (r[k] * inverse[k]);
-        rr[k % 4] += v * r[k];
-    }
-    return {(rz[0] + rz[1]) + (rz[2] + rz[3]), (rr[0] + rr[1]) + (rr[2] + rr[3])};
-}
-
-TESSWAVE_AVX2_CLONES void next_direction(float beta, const float* __restrict r,
-                                         const float* __restrict inverse, float* __restrict p,
-                                         size_t n) {
-    for (size_t k = 0; k < n; ++k) p[k] = r[k] * inverse[k] + beta * p[k];
+    return vector_kernels().dot(a.data(), b.data(), owner.data(), a.size());
 }
 
 }  // namespace tesswave::detail

@@ -80,23 +80,32 @@ void from_local(const NormalMatrix& A, const LocalGrids& g, const std::vector<fl
 void multiply(const NormalMatrix& A, const SharedNodes& s, const LocalGrids& g, const Planes& x,
               Planes& y, const std::vector<int>& active, std::vector<float>& products);
 
-// The reductions below keep four partial sums (k mod 4), so that a loop is not bound by the
-// latency of one double accumulator; the order, and so the result, is fixed. `owner` counts each
-// sample once. They and the stencil product are compiled for AVX2 and the baseline x86-64 and
-// picked at load time, with the same float and double operations in the same order (no fused
-// multiply-add): the results are the same to the bit on any machine.
+// The solver's vector kernels. The reductions keep four partial sums (k mod 4), so that a loop is
+// not bound by the latency of one double accumulator; the order, and so the result, is fixed.
+// `owner` counts each sample once. On x86-64 they are built twice, for AVX2 and for the baseline,
+// with the same float and double operations in the same order (no fused multiply-add), so that the
+// two give the same bits (a test compares them).
+struct VectorKernels {
+    // o[c] = sum over the nine entries e of st[e][c] g[c + offset[e]], c < n, in entry order.
+    void (*stencil_row)(const float* const* st, const float* g, const int32_t* offset, int32_t n,
+                        float* o);
+    double (*dot)(const float* a, const float* b, const float* owner, size_t n);
+    // One conjugate-gradient step of a channel, in one pass: x += step p, r -= step Ap; returns
+    // r.z (z = r / d) and r.r.
+    std::pair<double, double> (*step_channel)(float step, float* x, float* r, const float* p,
+                                              const float* ap, const float* inverse,
+                                              const float* owner, size_t n);
+    // The next search direction: p = r / d + beta p.
+    void (*next_direction)(float beta, const float* r, const float* inverse, float* p, size_t n);
+};
+
+const VectorKernels& baseline_kernels();
+// The AVX2 build, or null where the machine has none.
+const VectorKernels* avx2_kernels();
+// The build the machine runs best, picked once.
+const VectorKernels& vector_kernels();
+
 double dot(const std::vector<float>& a, const std::vector<float>& b,
            const std::vector<float>& owner);
-
-// One conjugate-gradient step of a channel, in one pass: x += step p, r -= step Ap; returns r.z
-// (z = r / d) and r.r.
-std::pair<double, double> step_channel(float step, float* __restrict x, float* __restrict r,
-                                       const float* __restrict p, const float* __restrict ap,
-                                       const float* __restrict inverse,
-                                       const float* __restrict owner, size_t n);
-
-// The next search direction: p = r / d + beta p.
-void next_direction(float beta, const float* __restrict r, const float* __restrict inverse,
-                    float* __restrict p, size_t n);
 
 }  // namespace tesswave::detail
