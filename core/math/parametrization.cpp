@@ -13,44 +13,7 @@ Vec2 bilinear(const Quad& q, double u, double v) {
     return (1 - u) * (1 - v) * q[0] + u * (1 - v) * q[1] + u * v * q[2] + (1 - u) * v * q[3];
 }
 
-UV inverse_bilinear(const Quad& q, Vec2 p) {
-    const Vec2 p00 = q[0], p10 = q[1], p11 = q[2], p01 = q[3];
-    // p0(u) = p00 + u a, p1(u) - p0(u) = b + u c with a = p10 - p00, b = p01 - p00,
-    // c = (p11 - p01) - (p10 - p00). (p - p0) x (p1 - p0) = (w - u a) x (b + u c), w = p - p00:
-    //   -(a x c) u^2 + (w x c - a x b) u + w x b = 0.
-    const Vec2 a = p10 - p00, b = p01 - p00, c = (p11 - p01) - a, w = p - p00;
-    const double A = -cross(a, c), B = cross(w, c) - cross(a, b), C = cross(w, b);
-    const double scale = std::max({std::abs(cross(a, b)), std::abs(B), 1e-300});
-    auto v_for = [&](double u) {
-        const Vec2 p0 = lerp(p00, p10, u), p1 = lerp(p01, p11, u), d = p1 - p0;
-        return std::abs(d.x) > std::abs(d.y) ? (p.x - p0.x) / d.x : (p.y - p0.y) / d.y;
-    };
-    auto outside = [](double t) { return t < 0 ? -t : (t > 1 ? t - 1 : 0.0); };
-    double roots[2];
-    int count = 0;
-    if (std::abs(A) <= 1e-12 * scale) {
-        roots[count++] = -C / B;  // parallel sides: the quadratic is linear
-    } else {
-        // Both roots, computed stably. The line through p0(u), p1(u) can pass through p for a
-        // second u in [0,1] with v outside [0,1]; the root whose (u, v) lies in the quad wins.
-        const double disc = std::sqrt(std::max(0.0, B * B - 4 * A * C));
-        const double qv = -0.5 * (B + std::copysign(disc, B));
-        roots[count++] = qv / A;
-        if (qv != 0) roots[count++] = C / qv;
-    }
-    double best_u = roots[0], best_v = 0, best_score = INFINITY;
-    for (int r = 0; r < count; ++r) {
-        const double u = std::clamp(roots[r], 0.0, 1.0);
-        const double v = v_for(u);
-        const double score = outside(roots[r]) + outside(v);
-        if (score < best_score) best_u = u, best_v = v, best_score = score;
-    }
-    // A degenerate quad (zero area) has no unique inverse; the result stays a point of the
-    // unit square rather than NaN.
-    const double u = std::isfinite(best_u) ? best_u : 0.0;
-    const double v = std::isfinite(best_v) ? best_v : 0.0;
-    return {u, std::clamp(v, 0.0, 1.0)};
-}
+UV inverse_bilinear(const Quad& q, Vec2 p) { return QuadInverse(q)(p); }
 
 std::vector<Quad> t1_quads(const Hierarchy& hierarchy, std::span<const Vec2> mesh_vertices) {
     const LevelTopology& t1 = hierarchy.levels.at(1);

@@ -94,19 +94,23 @@ RenderPlan plan_render(const Hierarchy& h, std::span<const Vec2> mesh_vertices, 
         static_cast<int64_t>(quads.size()),
         [&](int64_t begin, int64_t end) {
             for (int64_t qi = begin; qi < end; ++qi) {
-                const Quad& q = quads[qi];
+                const QuadInverse inverse(quads[qi]);
                 size_t e = first_entry[qi];
                 for (int32_t run = plan.quad_runs[qi]; run < plan.quad_runs[qi + 1]; ++run) {
                     const int32_t k = plan.run_start[run] / width;
                     const int32_t first = plan.run_start[run] % width;
                     for (int32_t i = first; i < first + plan.run_length[run]; ++i, ++e) {
-                        const UV uv = inverse_bilinear(q, {i + 0.5, k + 0.5});
+                        const UV uv = inverse({i + 0.5, k + 0.5});
                         const double s = uv.u * m, r = uv.v * m;
                         const int32_t c0 = std::min(static_cast<int32_t>(s), m - 1);
                         const int32_t r0 = std::min(static_cast<int32_t>(r), m - 1);
+                        // std::round(f * 65536) for f in [0, 1]: the integer part, plus one from
+                        // a half up (the fraction x - whole is exact), without a call to libm.
                         auto fixed = [](double f) {
-                            return static_cast<uint16_t>(
-                                std::min(65535.0, std::round(f * 65536.0)));
+                            const double x = f * 65536.0;
+                            const auto whole = static_cast<int64_t>(x);
+                            const int64_t rounded = whole + (x - static_cast<double>(whole) >= 0.5);
+                            return static_cast<uint16_t>(std::min<int64_t>(65535, rounded));
                         };
                         plan.cell[e] = r0 * side + c0;
                         plan.st[e] = {fixed(s - c0), fixed(r - r0)};
