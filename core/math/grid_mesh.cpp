@@ -51,9 +51,14 @@ std::vector<int32_t> grid_lattice_index(const Hierarchy& hierarchy, int cols, in
     std::vector<int32_t> index(p.size());
     std::vector<bool> taken(p.size(), false);
     for (size_t i = 0; i < p.size(); ++i) {
-        const double x = std::round(p[i].x), y = std::round(p[i].y);
-        const int64_t k = static_cast<int64_t>(y) * width + static_cast<int64_t>(x);
-        if (x != p[i].x || y != p[i].y || x < 0 || y < 0 || x >= width || y >= height || taken[k]) {
+        // In range first (NaN fails), then whole: the casts are exact only for integers.
+        const bool inside = p[i].x >= 0 && p[i].y >= 0 && p[i].x < static_cast<double>(width) &&
+                            p[i].y < static_cast<double>(height);
+        const int64_t x = inside ? static_cast<int64_t>(p[i].x) : 0;
+        const int64_t y = inside ? static_cast<int64_t>(p[i].y) : 0;
+        const int64_t k = y * width + x;
+        if (!inside || static_cast<double>(x) != p[i].x || static_cast<double>(y) != p[i].y ||
+            taken[k]) {
             throw Error(str("the mesh is not a ", cols, "x", rows, " grid"));
         }
         taken[k] = true;
