@@ -48,11 +48,12 @@ nlohmann::json twv_info(const std::string& path, int64_t max_pixels) {
     video::VideoDecoder decoder(path, limits_for<video::TwvLimits>(max_pixels));
     const video::TwvHeader& h = decoder.header();
     int64_t frames = 0, intra_bytes = 0, delta_bytes = 0, band_bytes = 0, motion_bytes = 0;
-    int64_t groups = 0;
+    int64_t groups = 0, repeated = 0;
     std::map<std::string, int> domains;
     while (decoder.skim()) {  // headers and chunks only: describing a file decodes nothing
         const video::TwvFrameInfo& f = decoder.info();
-        ++frames;
+        frames += 1 + f.repeats;
+        repeated += f.repeats;
         motion_bytes += f.motion_bytes;
         (f.kind == video::TwvFrameKind::intra   ? intra_bytes
          : f.kind == video::TwvFrameKind::delta ? delta_bytes
@@ -89,6 +90,7 @@ nlohmann::json twv_info(const std::string& path, int64_t max_pixels) {
         {"fps", h.fps()},
         {"frames", frames},
         {"groups", groups},
+        {"repeated_frames", repeated},
         {"indexed", decoder.frame_count().has_value()},
         {"intra_bytes", intra_bytes},
         {"delta_bytes", delta_bytes},

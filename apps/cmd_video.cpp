@@ -25,7 +25,7 @@ namespace fs = std::filesystem;
 struct EncodeArgs {
     std::string input, output, grid, motion = "tracked", size, pixel_format = "yuv420p", debug_dir;
     double kbps = 0, quality = 0, density = video::VideoEncodeOptions{}.density, intra_weight = 4,
-           fps = 0;
+           fps = 0, repeat_psnr = video::VideoEncodeOptions{}.repeat_psnr;
     int levels = 0, group = 33, motion_level = 0;
     int64_t max_frames = 0;
     std::string sampling = "fit";  // VideoEncodeOptions says why
@@ -122,6 +122,7 @@ void run_encode(const EncodeArgs& a) {
         .mesh_wavelet = mesh_wavelet_from_name(a.mesh_wavelet),
         .group = a.group,
         .low_delay = a.low_delay,
+        .repeat_psnr = a.repeat_psnr,
         .chroma_420 = a.chroma == "420" || (a.chroma == "auto" && source.chroma_subsampled()),
         .kbps = a.kbps,
         .intra_weight = a.intra_weight,
@@ -435,6 +436,11 @@ void add_video_commands(CLI::App& app) {
                   "Code each frame as it comes (closed-loop deltas) instead of lifting each "
                   "group along time, which takes a group of latency and gives more quality per "
                   "bit");
+    enc->add_option("--repeat-psnr", e->repeat_psnr,
+                    "A frame this close (PSNR in dB) to the frame before it is shown again "
+                    "instead of coded, as x264 skips it (lifted groups; 0: never; default " +
+                        str(video::VideoEncodeOptions{}.repeat_psnr) + ")")
+        ->check(CLI::Range(0.0, 200.0));
     enc->add_option("--intra-weight", e->intra_weight,
                     "With --low-delay and --kbps: an intra frame's budget in delta frames "
                     "(default 4)")

@@ -399,6 +399,26 @@ TEST(TwvRobustness, DecodingWorkIsBoundedByTheFileSize) {
     fs::remove(path);
 }
 
+// A repeat count is charged as the frames it shows are: a tiny file shows no million frames.
+TEST(TwvRobustness, RepeatsAreChargedAsTheFramesTheyShow) {
+    const TwvHeader header{.width = 512, .height = 512};
+    const TwvGroup g = grid_group(header, 5);
+    TwvFrame frame = empty_intra(g);
+    frame.repeats = kMaxRepeats;
+    const std::string path =
+        crafted({group_chunk(g), twv_chunk('F', write_twv_frame(frame, g))}, header);
+    const int64_t allowed = twv_work_allowed(static_cast<int64_t>(fs::file_size(path))) /
+                            (int64_t{header.width} * header.height);
+    ASSERT_LT(allowed, 100);
+    VideoDecoder decoder(path);
+    Image skipped;
+    int64_t frames = 0;
+    while (decoder.read(skipped, false)) ++frames;
+    EXPECT_EQ(frames, allowed);
+    EXPECT_NE(decoder.damage().find("frame pixels that a"), std::string::npos) << decoder.damage();
+    fs::remove(path);
+}
+
 // A lifted group is held whole: its coefficients are weighed against the file's bytes too.
 TEST(TwvRobustness, ALiftedGroupsMemoryIsBoundedByTheFileSize) {
     for (const int side : {512, 700}) {

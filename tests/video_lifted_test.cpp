@@ -1,5 +1,6 @@
 // The .twv codec's lifted groups: one slope lands the rate, identical frames cost a few bytes,
-// 4:2:0 chroma, quality targets per group, and each group kept on the mesh or the fixed grid.
+// repeated frames none, 4:2:0 chroma, quality targets per group, and each group kept on the mesh or
+// the fixed grid.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -47,13 +48,59 @@ TEST(VideoCodec, LiftedIdenticalFramesCostAFewBytesEach) {
     const samples::SampleClipOptions o{.width = 96, .height = 64, .frames = 1};
     const std::vector<Image> frames(8, samples::sample_clip_frame(o, 0));
     const std::string path = temp_path("lifted_still.twv");
-    const Coded coded = encode(frames, path, {.quality = 36, .grid_groups = false});
+    // Coded, not repeated (repeat_psnr 0), to see what the temporal bands of a still cost.
+    const Coded coded =
+        encode(frames, path, {.repeat_psnr = 0, .quality = 36, .grid_groups = false});
     for (size_t i = 1; i < frames.size(); ++i) {
         EXPECT_EQ(coded.frames[i].kind, TwvFrameKind::band);
         EXPECT_LE(coded.frames[i].bytes, 24) << "frame " << i;
         EXPECT_NEAR(coded.frames[i].psnr, coded.frames[0].psnr, 1e-3);
     }
     EXPECT_GE(coded.frames[0].psnr, 36);
+    fs::remove(path);
+}
+
+// Repeated frames (film on a higher frame rate, animation on twos) are shown again, not coded: the
+// decoder hands out the frame before, the index counts them, a seek lands on them, and the file
+// is smaller than with every frame coded.
+TEST(VideoCodec, RepeatedFramesAreShownAgainNotCoded) {
+    const std::vector<Image> unique = clip(slow_pan(4));
+    const std::vector<Image> frames = {unique[0], unique[1], unique[1], unique[2],
+                                       unique[2], unique[2], unique[3]};
+    const std::vector<bool> repeat = {false, false, true, false, true, true, false};
+    const std::string path = temp_path("repeats.twv");
+    const VideoEncodeOptions o{.quality = 34, .grid_groups = false};
+    const Coded coded = encode(frames, path, o);
+    ASSERT_EQ(coded.frames.size(), frames.size());
+    for (size_t i = 0; i < frames.size(); ++i) {
+        SCOPED_TRACE(i);
+        EXPECT_EQ(coded.frames[i].number, static_cast<int64_t>(i));
+        EXPECT_EQ(coded.frames[i].repeat, repeat[i]);
+        if (repeat[i]) {
+            EXPECT_EQ(coded.frames[i].bytes, 0);
+        }
+    }
+    const std::vector<Image> decoded = decode_all(path);
+    ASSERT_EQ(decoded.size(), frames.size());
+    for (size_t i = 0; i < frames.size(); ++i) {
+        SCOPED_TRACE(i);
+        expect_identical(decoded[i], coded.reconstructions[i]);
+        if (repeat[i]) expect_identical(decoded[i], decoded[i - 1]);
+    }
+    VideoDecoder decoder(path);
+    EXPECT_EQ(decoder.frame_count(), 7);
+    // Frame 5 repeats frame 3, which the seek decodes without rendering.
+    Image at;
+    ASSERT_TRUE(decoder.seek(5));
+    ASSERT_TRUE(decoder.read(at));
+    EXPECT_TRUE(decoder.info().repeat);
+    EXPECT_EQ(decoder.info().number, 5);
+    expect_identical(at, decoded[5]);
+    VideoEncodeOptions every = o;
+    every.repeat_psnr = 0;
+    const Coded all = encode(frames, path, every);
+    EXPECT_LT(coded.bytes, all.bytes);
+    for (const EncodedFrame& f : all.frames) EXPECT_FALSE(f.repeat);
     fs::remove(path);
 }
 

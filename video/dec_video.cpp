@@ -73,7 +73,8 @@ void VideoDecoder::read_index() {
     damage_.clear();
     if (!chunk || chunk->tag != 'I' || chunk->end != file_size_ - kTwvTrailerBytes) return;
     try {
-        index_ = read_twv_index(chunk->payload, offset, str(path_, ": index"), limits_);
+        index_ =
+            read_twv_index(chunk->payload, offset, str(path_, ": index"), limits_, header_.version);
         data_end_ = offset;
     } catch (const Error&) {
         index_.reset();
@@ -130,20 +131,22 @@ void VideoDecoder::start_group(const Chunk& chunk) {
     if (skimmed_) {  // described, not decoded: no domain
         group_ = std::move(g);
         in_group_ = true;
+        group_chunks_ = 0;
         return;
     }
     if (!domain_ || !same_domain(g, group_)) domain_ = group_domain(header_, g, false);
     group_ = std::move(g);
     in_group_ = true;
+    group_chunks_ = 0;
 }
 
-TwvFrame VideoDecoder::frame_of(const Chunk& chunk, const std::string& what) const {
+TwvFrame VideoDecoder::frame_of(const Chunk& chunk, const std::string& what, int64_t slot) const {
     if (!in_group_) throw Error(str(what, " comes before any group"));
     TwvFrame f = read_twv_frame(chunk.payload, group_, header_, what);
     if (f.number != next_frame_) throw Error(str(what, ": the chunk says frame ", f.number));
     const bool first = next_frame_ == group_.first_frame;
     if (group_.lifted > 0) {
-        if (next_frame_ >= group_.first_frame + group_.lifted) {
+        if (slot >= group_.lifted) {
             throw Error(str(what, " lies past its group's ", group_.lifted, " frames"));
         }
     } else if (first != (f.kind == TwvFrameKind::intra)) {
@@ -181,7 +184,7 @@ void VideoDecoder::charge(int64_t frames, const std::string& what) {
 void VideoDecoder::decode_frame(const Chunk& chunk, Image* out) {
     const std::string what = str(path_, ": frame ", next_frame_);
     charge(1, what);
-    TwvFrame f = frame_of(chunk, what);
+    TwvFrame f = frame_of(chunk, what, group_chunks_++);
     std::vector<Vec2> vertices = frame_vertices(f, what);
     if (next_frame_ == group_.first_frame) coefficients_ = domain_->zeros();
     add_decoded_residual(*domain_, f, coefficients_, header_.version >= 2);
@@ -190,8 +193,35 @@ void VideoDecoder::decode_frame(const Chunk& chunk, Image* out) {
     info_ = {.number = f.number,
              .kind = f.kind,
              .bytes = static_cast<int64_t>(chunk.end - chunk.offset),
-             .motion_bytes = static_cast<int64_t>(f.motion.size())};
+             .motion_bytes = static_cast<int64_t>(f.motion.size()),
+             .repeats = f.repeats};
     if (out) domain_->synthesize(coefficients_, vertices_, *out);
+    repeats_left_ = f.repeats;
+    repeated_.reset();
+    if (out && f.repeats > 0) repeated_ = *out;
+    ++next_frame_;
+}
+
+void VideoDecoder::repeat_frame(Image* out) {
+    charge(1, str(path_, ": frame ", next_frame_));
+    --repeats_left_;
+    info_ = {.number = next_frame_, .kind = info_.kind, .repeat = true};
+    if (out) {
+        if (!repeated_) {  // the frame was skipped (a seek): render it now
+            Image image;
+            if (lifted_) {
+                const size_t t = lifted_->next - 1;
+                std::vector<Image> one(1);
+                synthesize_frames(*domain_, std::span(lifted_->coefficients).subspan(t, 1),
+                                  std::span(lifted_->vertices).subspan(t, 1), one);
+                image = std::move(one[0]);
+            } else {
+                domain_->synthesize(coefficients_, vertices_, image);
+            }
+            repeated_ = std::move(image);
+        }
+        *out = *repeated_;
+    }
     ++next_frame_;
 }
 
@@ -230,7 +260,7 @@ void VideoDecoder::load_lifted_group() {
                 throw Error(
                     str(what, ": the group ends after ", t, " of its ", group_.lifted, " frames"));
             }
-            TwvFrame f = frame_of(*chunk, what);
+            TwvFrame f = frame_of(*chunk, what, t);
             std::vector<Vec2> vertices = frame_vertices(f, what);
             previous_ = std::move(vertices_);
             vertices_ = vertices;  // on the canvas: what the next frame's motion starts from
@@ -239,15 +269,16 @@ void VideoDecoder::load_lifted_group() {
             g.info.push_back({.number = f.number,
                               .kind = f.kind,
                               .bytes = static_cast<int64_t>(chunk->end - chunk->offset),
-                              .motion_bytes = static_cast<int64_t>(f.motion.size())});
+                              .motion_bytes = static_cast<int64_t>(f.motion.size()),
+                              .repeats = f.repeats});
             g.ends.push_back(chunk->end);
+            next_frame_ += 1 + f.repeats;
             bands.push_back(std::move(f));
         } catch (const Error& e) {
             g.damage = e.what();
             break;
         }
         at = chunk->end;
-        ++next_frame_;
     }
     next_frame_ = saved_next;
     if (!bands.empty())
@@ -269,6 +300,10 @@ bool VideoDecoder::skim() {
 bool VideoDecoder::next_frame(Image* out, bool decode) {
     if (!damage_.empty()) return false;
     try {
+        if (repeats_left_ > 0) {
+            repeat_frame(out);
+            return true;
+        }
         for (;;) {
             if (lifted_) {  // hand out the group's next frame
                 Lifted& g = *lifted_;
@@ -296,6 +331,9 @@ bool VideoDecoder::next_frame(Image* out, bool decode) {
                         }
                         *out = std::move(g.images[t - g.rendered]);
                     }
+                    repeats_left_ = info_.repeats;
+                    repeated_.reset();
+                    if (out && info_.repeats > 0) repeated_ = *out;
                     position_ = g.ends[t];
                     ++next_frame_;
                     return true;
@@ -344,12 +382,13 @@ bool VideoDecoder::next_frame(Image* out, bool decode) {
 
 void VideoDecoder::describe_frame(const Chunk& chunk) {
     const std::string what = str(path_, ": frame ", next_frame_);
-    const TwvFrame f = frame_of(chunk, what);
+    const TwvFrame f = frame_of(chunk, what, group_chunks_++);
     info_ = {.number = f.number,
              .kind = f.kind,
              .bytes = static_cast<int64_t>(chunk.end - chunk.offset),
-             .motion_bytes = static_cast<int64_t>(f.motion.size())};
-    ++next_frame_;
+             .motion_bytes = static_cast<int64_t>(f.motion.size()),
+             .repeats = f.repeats};
+    next_frame_ += 1 + f.repeats;
 }
 
 bool VideoDecoder::seek(int64_t frame) {
@@ -366,6 +405,7 @@ bool VideoDecoder::seek(int64_t frame) {
             next_frame_ = first[g];
             in_group_ = false;
             lifted_.reset();
+            repeats_left_ = 0;
             damage_.clear();
             work_ = 0;
         }
@@ -374,6 +414,7 @@ bool VideoDecoder::seek(int64_t frame) {
         next_frame_ = 0;
         in_group_ = false;
         lifted_.reset();
+        repeats_left_ = 0;
         damage_.clear();
         work_ = 0;
     }

@@ -25,8 +25,10 @@ namespace tesswave::video {
 struct TwvFrameInfo {
     int64_t number = 0;
     TwvFrameKind kind = TwvFrameKind::intra;
-    int64_t bytes = 0;         // the whole chunk
+    int64_t bytes = 0;         // the whole chunk (0 for a repeat)
     int64_t motion_bytes = 0;  // vertex motion within it
+    int64_t repeats = 0;       // copies of the frame that follow it (version 5)
+    bool repeat = false;       // a copy of the frame before (it has no chunk of its own)
 };
 
 class VideoDecoder {
@@ -79,8 +81,11 @@ class VideoDecoder {
     void decode_frame(const Chunk& chunk, Image* out);
     bool next_frame(Image* out, bool decode);
     void describe_frame(const Chunk& chunk);
-    // Checks a frame chunk's number and kind against the group; throws Error.
-    TwvFrame frame_of(const Chunk& chunk, const std::string& what) const;
+    // Checks a frame chunk's number and kind against the group (`slot`: the chunks of the group
+    // before it); throws Error.
+    TwvFrame frame_of(const Chunk& chunk, const std::string& what, int64_t slot) const;
+    // Hands out a copy of the frame before (a repeat); renders it if it was not.
+    void repeat_frame(Image* out);
     std::vector<Vec2> frame_vertices(const TwvFrame& f, const std::string& what) const;
     void load_lifted_group();
     void charge(int64_t frames, const std::string& what);
@@ -110,6 +115,10 @@ class VideoDecoder {
     TwvGroup group_;
     std::shared_ptr<const CodingDomain> domain_;
     bool in_group_ = false;
+    int64_t group_chunks_ = 0;  // frame chunks of the group read so far
+    // Copies still to hand out of the frame read last, and its image when it was rendered.
+    int64_t repeats_left_ = 0;
+    std::optional<Image> repeated_;
     int64_t next_frame_ = 0;  // the frame number the next frame chunk must carry
     Planes coefficients_;
     std::vector<Vec2> vertices_, previous_;  // this frame's and the one before (empty: none)

@@ -45,6 +45,9 @@ VideoEncoder::GroupCoding VideoEncoder::code_group(const CodingDomain& domain, c
                                                    std::span<const Window> windows) const {
     const int n = static_cast<int>(x.size());
     const int64_t first = pending_.front().info.number;
+    // The frames the group shows: its own and their repeats.
+    int64_t shown = n;
+    for (const Pending& p : pending_) shown += static_cast<int64_t>(p.repeats.size());
     const TemporalTree tree = temporal_tree(header_);
     const int levels = temporal_levels(n, tree);
     temporal_forward(x, levels, tree);
@@ -63,7 +66,7 @@ VideoEncoder::GroupCoding VideoEncoder::code_group(const CodingDomain& domain, c
     if (options_.kbps > 0) {
         const double B = options_.kbps * 1000 / 8 / header_.fps();
         const double debt = static_cast<double>(written_) - static_cast<double>(coded_frames_) * B;
-        const double share = n * B;
+        const double share = static_cast<double>(shown) * B;
         group_target = std::max(share - debt, 0.5 * share);
         budget = static_cast<int64_t>(group_target);
     }
@@ -82,7 +85,8 @@ VideoEncoder::GroupCoding VideoEncoder::code_group(const CodingDomain& domain, c
         bool capped = false;
         for (int t = 0; t < n; ++t) {
             TwvFrame& f = g.frames[static_cast<size_t>(t)];
-            f.number = first + t;
+            f.number = pending_[static_cast<size_t>(t)].info.number;
+            f.repeats = static_cast<int64_t>(pending_[static_cast<size_t>(t)].repeats.size());
             f.kind = TwvFrameKind::band;
             f.base_step = static_cast<float>(base_step / norms[static_cast<size_t>(t)]);
             f.motion = motion[static_cast<size_t>(t)];
@@ -273,11 +277,12 @@ std::vector<EncodedFrame> VideoEncoder::code_lifted_group(std::vector<GroupFrame
     largest_group_bytes_ = std::max(largest_group_bytes_, twv_lifted_group_bytes(g.group, header_));
     uint64_t start = written_;
     write(twv_chunk('G', write_twv_group(g.group)));
-    std::vector<EncodedFrame> done;
+    std::vector<EncodedFrame> done, later;
     for (size_t t = 0; t < n; ++t) {
         Pending& p = pending_[t];
         const TwvFrame& f = g.frames[t];
-        index_.frame_offsets.push_back(written_);
+        const uint64_t chunk_at = written_;
+        index_.frame_offsets.push_back(chunk_at);
         write(twv_chunk('F', write_twv_frame(f, g.group)));
         EncodedFrame e = std::move(p.info);
         e.kind = TwvFrameKind::band;
@@ -296,10 +301,27 @@ std::vector<EncodedFrame> VideoEncoder::code_lifted_group(std::vector<GroupFrame
             e.vertices = vertices[t];
         }
         e.live_tracks = std::move(p.tracks);
+        // Its repeats share its chunk and show its image.
+        for (Repeat& r : p.repeats) {
+            index_.frame_offsets.push_back(chunk_at);
+            EncodedFrame c = std::move(r.info);
+            c.kind = e.kind;
+            c.grid_group = e.grid_group;
+            c.canvas_group = e.canvas_group;
+            c.static_group = e.static_group;
+            c.psnr = psnr(r.frame, e.reconstruction).all;
+            c.quality_target = e.quality_target;
+            c.reconstruction = e.reconstruction;
+            c.mesh = e.mesh;
+            c.vertices = e.vertices;
+            later.push_back(std::move(c));
+        }
+        coded_frames_ += 1 + static_cast<int64_t>(p.repeats.size());
         done.push_back(std::move(e));
+        for (EncodedFrame& c : later) done.push_back(std::move(c));
+        later.clear();
         start = written_;
     }
-    coded_frames_ += static_cast<int64_t>(n);
     pending_.clear();
     return done;
 }

@@ -271,12 +271,27 @@ std::vector<uint8_t> VideoEncoder::code_frame(const Image& frame, TwvFrame& f, i
     return twv_chunk('F', write_twv_frame(f, group_));
 }
 
+bool VideoEncoder::take_repeat(const Image& frame) {
+    if (options_.low_delay || options_.repeat_psnr <= 0 || pending_.empty()) return false;
+    const double threshold =
+        std::max(options_.repeat_psnr, options_.quality > 0 ? options_.quality + 6 : 0.0);
+    Pending& last = pending_.back();
+    if (psnr(frame, last.frame).all < threshold) return false;
+    EncodedFrame info;
+    info.number = frames_;
+    info.repeat = true;
+    last.repeats.push_back({frame, std::move(info)});
+    ++frames_;
+    return true;
+}
+
 std::vector<EncodedFrame> VideoEncoder::encode(const Image& frame) {
     if (finished_) throw Error("the encoder has finished");
     if (frame.width != header_.width || frame.height != header_.height) {
         throw Error(str("frame ", frames_, " is ", frame.width, "x", frame.height, ", the clip is ",
                         header_.width, "x", header_.height));
     }
+    if (take_repeat(frame)) return {};
     EncodedFrame info;
     info.number = frames_;
     const Progress& progress = options_.progress;

@@ -11,7 +11,8 @@
 namespace tesswave::video {
 namespace {
 
-constexpr uint32_t kVersion = 4;
+constexpr uint32_t kVersion = 5;
+constexpr uint8_t kRepeatsFollow = 0x80;  // in a frame's kind byte (version 5)
 
 void write_u64(ByteWriter& w, uint64_t v) {
     for (int i = 0; i < 8; ++i) w.u8(static_cast<uint8_t>(v >> (8 * i)));
@@ -258,7 +259,9 @@ TwvGroup read_twv_group(std::span<const uint8_t> payload, const TwvHeader& h,
 std::vector<uint8_t> write_twv_frame(const TwvFrame& f, const TwvGroup& g) {
     ByteWriter w;
     w.varint(f.number);
-    w.u8(static_cast<uint8_t>(f.kind));
+    // Version 5: the kind's top bit says that a repeat count follows.
+    w.u8(static_cast<uint8_t>(static_cast<uint8_t>(f.kind) | (f.repeats > 0 ? kRepeatsFollow : 0)));
+    if (f.repeats > 0) w.varint(static_cast<uint64_t>(f.repeats));
     w.f32(f.base_step);
     if (g.has_canvas()) {
         w.varint(static_cast<uint64_t>(f.window_x));
@@ -295,7 +298,13 @@ TwvFrame read_twv_frame(std::span<const uint8_t> payload, const TwvGroup& g, con
     ByteReader r(payload, what);
     TwvFrame f;
     f.number = static_cast<int64_t>(r.varint("frame number"));
-    f.kind = static_cast<TwvFrameKind>(r.count("frame kind", 0, 2));
+    uint32_t kind = r.u8("frame kind");
+    if (h.version >= 5 && (kind & kRepeatsFollow)) {
+        f.repeats = r.count("repeats", 1, kMaxRepeats);
+        kind &= ~uint32_t{kRepeatsFollow};
+    }
+    if (kind > 2) r.fail(str("frame kind = ", kind, " is outside [0, 2]"));
+    f.kind = static_cast<TwvFrameKind>(kind);
     if ((f.kind == TwvFrameKind::band) != (g.lifted > 0)) {
         r.fail(g.lifted > 0 ? "a lifted group holds temporal bands only"
                             : "a temporal band outside a lifted group");
@@ -362,7 +371,7 @@ std::vector<uint8_t> write_twv_index(const TwvIndex& index) {
 }
 
 TwvIndex read_twv_index(std::span<const uint8_t> payload, uint64_t file_size,
-                        const std::string& what, const TwvLimits& limits) {
+                        const std::string& what, const TwvLimits& limits, int version) {
     ByteReader r(payload, what);
     // Every entry takes at least one byte, so counts beyond the payload are refused up front.
     const int64_t room = static_cast<int64_t>(payload.size());
@@ -385,7 +394,8 @@ TwvIndex read_twv_index(std::span<const uint8_t> payload, uint64_t file_size,
     offset = 0;
     for (int64_t i = 0; i < frames; ++i) {
         const auto delta = r.varint("frame offset");
-        if (delta == 0) r.fail("frame offsets must increase");
+        // Version 5: a repeated frame shares the chunk of the frame it repeats.
+        if (delta == 0 && (i == 0 || version < 5)) r.fail("frame offsets must increase");
         if (delta >= file_size - offset) r.fail("frame offset past the end of the file");
         offset += delta;
         index.frame_offsets.push_back(offset);

@@ -16,23 +16,24 @@
 //     only in a lifted group: T0 is the grid on the canvas [0,W+x]x[0,H+y] and each frame a window
 //     of it)
 //   'F' frame: frame number varint | kind u8 (0 intra, 1 delta, 2 temporal band: slot t of a
-//     lifted group, which carries frame t's motion) | base step f32 | a group with a canvas:
-//     the frame's window on it, left and top varint (1/4 pixels, within the canvas) | tracked mesh
-//     path: motion bytes varint (0: the mesh stays where it was, at rest for an intra frame),
-//     then that many bytes of range-coded vertex motion |
-//     largest bit-plane count u8, and unless it is 0 (nothing to add: the payload ends): per
-//     channel and band, bit-planes u8 (version 2 and later, with a largest count of at most 15: two
-//     a byte, low nibble first, the last high nibble 0) | the embedded bit-plane stream (rest of
-//     the payload)
+//     lifted group, which carries frame t's motion; version 5: plus 0x80 when a repeat count
+//     follows) | version 5, with 0x80: repeats varint, at least 1 (the frame is shown 1 + repeats
+//     times: the frames after it, numbered on, are copies of it) | base step f32 | a group with a
+//     canvas: the frame's window on it, left and top varint (1/4 pixels, within the canvas) |
+//     tracked mesh path: motion bytes varint (0: the mesh stays where it was, at rest for an intra
+//     frame), then that many bytes of range-coded vertex motion | largest bit-plane count u8, and
+//     unless it is 0 (nothing to add: the payload ends): per channel and band, bit-planes u8
+//     (version 2 and later, with a largest count of at most 15: two a byte, low nibble first, the
+//     last high nibble 0) | the embedded bit-plane stream (rest of the payload)
 //   'I' index: frame count varint | group count varint | per group: chunk offset (delta from the
 //     previous group's, varint) and first frame varint | per frame: chunk offset (delta from the
-//     previous frame's, varint)
+//     previous frame's, varint; version 5: 0 for a repeated frame, which shares its chunk)
 //   trailer: offset of the index chunk u64 (little-endian) | "TWVE"
 //
 // A file cut anywhere decodes up to its last whole frame chunk (readers scan when the trailer is
 // missing); in a lifted group, the frames whose chunks arrived, the missing bands taken as zero.
-// Version 1 files (no lifted groups), version 2 files (no canvas) and version 3 files (the lifted
-// mesh wavelet only) are read as before.
+// Version 1 files (no lifted groups), version 2 files (no canvas), version 3 files (the lifted
+// mesh wavelet only) and version 4 files (no repeated frames) are read as before.
 #pragma once
 
 #include <cstdint>
@@ -53,7 +54,7 @@ struct TwvHeader {
     int width = 0, height = 0;
     int fps_num = 25, fps_den = 1;
     int channels = 3, bit_depth = 8;
-    int version = 4;  // as read; written files are version 4
+    int version = 5;  // as read; written files are version 5
     double fps() const { return static_cast<double>(fps_num) / fps_den; }
 };
 
@@ -78,9 +79,14 @@ struct TwvGroup {
 
 enum class TwvFrameKind : uint8_t { intra = 0, delta = 1, band = 2 };
 
+// The most copies one frame chunk may ask for (the decoder also counts each against the work its
+// file may cost).
+inline constexpr int64_t kMaxRepeats = int64_t{1} << 20;
+
 struct TwvFrame {
     int64_t number = 0;
     TwvFrameKind kind = TwvFrameKind::intra;
+    int64_t repeats = 0;  // version 5: copies of this frame that follow it
     float base_step = 1.0f;
     // A group with a canvas: where the frame lies on it (its top left corner), in 1/4 pixels.
     int32_t window_x = 0, window_y = 0;
@@ -178,9 +184,10 @@ TwvFrame read_twv_frame(std::span<const uint8_t> payload, const TwvGroup& group,
                         const TwvHeader& header, const std::string& what);
 
 std::vector<uint8_t> write_twv_index(const TwvIndex& index);
-// Offsets must increase and lie before `file_size`; frames must be in their groups' order.
+// Offsets must increase (from version 5 a repeated frame's may equal the one before) and lie
+// before `file_size`; frames must be in their groups' order.
 TwvIndex read_twv_index(std::span<const uint8_t> payload, uint64_t file_size,
-                        const std::string& what, const TwvLimits& limits = {});
+                        const std::string& what, const TwvLimits& limits = {}, int version = 5);
 std::vector<uint8_t> twv_trailer(uint64_t index_offset);
 
 }  // namespace tesswave::video
