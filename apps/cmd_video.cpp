@@ -134,6 +134,7 @@ void run_encode(const EncodeArgs& a) {
     ProgressBar bar;
     int64_t n = 0;
     video::GroupCount groups;
+    int64_t repeated = 0;            // frames shown again, not coded
     int64_t* given_count = nullptr;  // set below: frames given to the encoder
     if (total > 0) {
         o.progress = [&bar, &given_count, total](double done, const char* stage) {
@@ -169,8 +170,10 @@ void run_encode(const EncodeArgs& a) {
             warn(str("warning: ", a.input, ": ", line));
         }
         groups.add(f);
+        repeated += f.repeat;
         frames.push_back({{"frame", f.number},
                           {"kind", kind_name(f.kind)},
+                          {"repeat", f.repeat},
                           {"bytes", f.bytes},
                           {"motion_bytes", f.motion_bytes},
                           {"psnr", f.psnr},
@@ -223,6 +226,7 @@ void run_encode(const EncodeArgs& a) {
                         {"static_groups", groups.static_groups},
                         {"grid_groups", groups.grid_groups},
                         {"canvas_groups", groups.canvas_groups},
+                        {"repeated_frames", repeated},
                         {"bytes", bytes},
                         {"padding_bytes", encoder->padding()},
                         {"kbps", kbps},
@@ -239,6 +243,7 @@ void run_encode(const EncodeArgs& a) {
     if (groups.static_groups > 0) kept += str(", ", groups.static_groups, " on the static mesh");
     if (groups.grid_groups > 0) kept += str(", ", groups.grid_groups, " on the fixed grid");
     if (groups.canvas_groups > 0) kept += str(", ", groups.canvas_groups, " on a canvas");
+    if (repeated > 0) kept += str(", ", repeated, " frames repeated");
     std::printf(
         "%s: %lld frames %dx%d in %lld groups%s, %lld bytes, %.1f kbit/s at %.3g fps "
         "(%.4f bpp), mean PSNR %.2f dB; %.1f frames/s\n",
