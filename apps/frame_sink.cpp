@@ -3,6 +3,7 @@
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <filesystem>
 
 #include "core/io/file_io.h"
@@ -98,12 +99,45 @@ void FrameSink::finish() {
         write_gif(gif_, path_, fps_, {.dither = "bayer"});
     } else {
         if (frames_ == 0) throw Error(str(path_, ": no frames to write"));
-        std::error_code ec;
-        fs::remove_all(path_, ec);  // the caller checked that overwriting is allowed
-        fs::rename(folder_, path_, ec);
-        if (ec) throw Error(str(path_, ": cannot move the frames into place (", ec.message(), ")"));
+        move_frames_into_place();
     }
     finished_ = true;
+}
+
+// A new folder takes the frames' folder whole. An existing one (the caller checked that
+// overwriting is allowed) loses only its frames (frame_ and digits .png, also those past the new
+// count, which would otherwise pass as part of the sequence); the user's other files stay.
+void FrameSink::move_frames_into_place() {
+    std::error_code ec;
+    const auto fail = [&](const std::error_code& e) {
+        throw Error(str(path_, ": cannot move the frames into place (", e.message(), ")"));
+    };
+    if (!fs::is_directory(path_, ec)) {
+        if (fs::exists(fs::symlink_status(path_, ec))) fs::remove(path_, ec);  // a file: replaced
+        fs::rename(folder_, path_, ec);
+        if (ec) fail(ec);
+        return;
+    }
+    const auto is_frame = [](const fs::path& p) {
+        const std::string name = p.filename().string();
+        if (!name.starts_with("frame_") || !name.ends_with(".png") || name.size() < 15)
+            return false;
+        return std::all_of(name.begin() + 6, name.end() - 4,
+                           [](char c) { return c >= '0' && c <= '9'; });
+    };
+    std::vector<fs::path> stale;
+    for (const fs::directory_entry& e : fs::directory_iterator(path_, ec)) {
+        if (is_frame(e.path()) && !e.is_directory()) stale.push_back(e.path());
+    }
+    if (ec) fail(ec);
+    for (const fs::path& p : stale) fs::remove(p, ec);
+    for (int64_t k = 0; k < frames_; ++k) {
+        char name[32];
+        std::snprintf(name, sizeof name, "frame_%05lld.png", static_cast<long long>(k));
+        fs::rename(fs::path(folder_) / name, fs::path(path_) / name, ec);
+        if (ec) fail(ec);
+    }
+    fs::remove_all(folder_, ec);
 }
 
 }  // namespace tesswave::cli

@@ -2,7 +2,8 @@
 // lossless FFV1, .y4m), an animated GIF (.gif, palette per clip), or a folder of numbered PNG
 // frames (a path without an extension, or ending in /). Any other extension is refused before
 // any work (check_path). Nothing appears at the path until finish(): files are written under a
-// temporary name, PNG frames into a temporary folder renamed into place.
+// temporary name, PNG frames into a temporary folder renamed into place (into an existing folder,
+// they replace its frames only: the user's other files there stay).
 #pragma once
 
 #include <memory>
@@ -37,6 +38,8 @@ class FrameSink {
     static bool is_folder_path(const std::string& path);
 
   private:
+    void move_frames_into_place();
+
     std::string path_, folder_;
     double fps_ = 25;
     std::unique_ptr<VideoWriter> video_;

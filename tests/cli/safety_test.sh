@@ -97,6 +97,21 @@ cp "$dir/s/scene.png" "$dir/h3/sub/other.png"
 check "analyze a hard-linked input into a folder without its names" \
     "$tesswave" analyze "$dir/d/resampled.png" -o "$dir/h3" -y --keep 10
 
+# -y into an existing folder replaces its frames only: the user's other files stay, and frames of
+# an earlier, longer run go (they would pass as part of the sequence).
+mkdir -p "$dir/keep/sub"
+echo precious >"$dir/keep/notes.txt"
+echo x >"$dir/keep/sub/y.txt"
+touch "$dir/keep/frame_00007.png"
+check "morph -y into a folder with other files" "$tesswave" morph "$dir/s/pair_a.png" \
+    "$dir/s/pair_b.png" -o "$dir/keep" --frames 2 --size 64x48 -y
+if [[ $(cat "$dir/keep/notes.txt") == precious && -f $dir/keep/sub/y.txt &&
+    -f $dir/keep/frame_00001.png && ! -e $dir/keep/frame_00007.png ]]; then
+    pass "-y kept the folder's other files and replaced its frames"
+else
+    fail "-y into a folder: $(find "$dir/keep" | tr '\n' ' ')"
+fi
+
 # Nothing dropped silently, every message names its file: a half-cut .mkv (libav reads it to its
 # end without an error), a 1x1 image for compare, and running out of memory.
 size=$(stat -c %s "$dir/s/clip.mkv")
