@@ -5,7 +5,9 @@
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
+#include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <exception>
 #include <new>
 #include <string>
@@ -71,6 +73,31 @@ std::string first_positional(const CLI::App& app) {
     return {};
 }
 
+// Every floating-point option refuses NaN (exit 2, naming the option): CLI11's ranges let it pass,
+// since every comparison with it is false, and it then stood for a default or broke the work.
+void refuse_nan(CLI::App& app) {
+    const CLI::Validator not_nan(
+        [](std::string& value) -> std::string {
+            size_t from = 0;
+            for (;;) {
+                const size_t to = value.find(',', from);
+                const std::string piece = value.substr(from, to - from);
+                char* end = nullptr;
+                const double v = std::strtod(piece.c_str(), &end);
+                if (end != piece.c_str() && *end == 0 && std::isnan(v)) {
+                    return piece + " is not a number";
+                }
+                if (to == std::string::npos) return {};
+                from = to + 1;
+            }
+        },
+        "");
+    for (CLI::Option* o : app.get_options()) {
+        if (o->get_type_name().rfind("FLOAT", 0) == 0) o->check(not_nan);
+    }
+    for (CLI::App* sub : app.get_subcommands({})) refuse_nan(*sub);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -131,6 +158,7 @@ int main(int argc, char** argv) {
     tesswave::cli::add_info_command(app);
     tesswave::cli::add_samples_command(app);
     tesswave::cli::add_demo_command(app);
+    refuse_nan(app);
     install_interrupt_handlers();
     try {
         app.parse(argc, argv);

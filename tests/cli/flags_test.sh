@@ -48,6 +48,13 @@ if grep -q '"keep_percent": 1' "$dir/out.txt"; then pass "both percentages kept"
 # -q: nothing but errors (and --json); -v: a line per stage; both before or after the subcommand.
 check "-q compress" "$tesswave" compress "$s/scene.png" -o "$dir/q.twi" -q
 if [[ ! -s $dir/out.txt && ! -s $dir/err.txt ]]; then pass "-q is silent"; else fail "-q printed"; fi
+# NaN is no number for any option (CLI11's ranges let it through: every comparison is false).
+refuse "compress --psnr nan" "$dir/nan.twi" "$tesswave" compress "$s/scene.png" --psnr nan \
+    -o "$dir/nan.twi"
+refuse "analyze --keep 10,nan" "$dir/nan" "$tesswave" analyze "$s/scene.png" --keep 10,nan \
+    -o "$dir/nan"
+refuse "morph --fps NaN" "$dir/nan.mp4" "$tesswave" morph "$s/pair_a.png" "$s/pair_b.png" \
+    --fps NaN -o "$dir/nan.mp4"
 check "-q compress --psnr 90" "$tesswave" -q compress "$s/scene.png" --psnr 90 -o "$dir/q.twi" -y
 if [[ ! -s $dir/err.txt ]]; then pass "-q hides the warning"; else fail "-q warned"; fi
 check "-v compress" "$tesswave" -v compress "$s/scene.png" -o "$dir/v.twi"
