@@ -76,7 +76,9 @@ void run_compress(CompressArgs a) {
     }
     const Image image = read_input(a.input, limits);
     const double pixels = double(image.width) * image.height;
-    if (a.bpp > 0) o.max_bytes = static_cast<int64_t>(std::floor(a.bpp * pixels / 8));
+    // At least a byte: a budget of 0 means no budget (the whole stream).
+    if (a.bpp > 0)
+        o.max_bytes = std::max<int64_t>(1, static_cast<int64_t>(std::floor(a.bpp * pixels / 8)));
     if (!a.mesh.empty()) o.mesh = mesh_for(a.mesh, a.input, image, a.fit_mesh);
     ProgressBar bar;
     o.progress = [&bar](double done, const char* stage) { bar.update(done, stage); };

@@ -241,20 +241,28 @@ void run_compare(const CompareArgs& a) {
         std::vector<Row> image_rows;
         for (double rate : rates) {
             bar.update(done / steps, "lossy");
-            const int64_t budget =
-                static_cast<int64_t>(std::floor(rate * image.width * image.height / 8));
+            // At least a byte: a budget of 0 would mean lossless to every coder.
+            const int64_t budget = std::max<int64_t>(
+                1, static_cast<int64_t>(std::floor(rate * image.width * image.height / 8)));
             // JPEG 2000 first: it can only approach the budget from below; ours then match it.
             std::vector<Image> crops = {centre_crop(image, 256, 256)};
             std::vector<std::string> captions = {"original"};
             Image decoded;
-            Row j2k = run_method(image, 4, budget, a.density, a.sampling, &decoded);
             std::vector<Row> at_rate;
-            for (int m = 0; m < 4; ++m) {
-                Image ours;
-                at_rate.push_back(run_method(image, m, j2k.bytes, a.density, a.sampling, &ours));
-                crops.push_back(centre_crop(ours, 256, 256));
-                captions.push_back(
-                    str(kMethods[m], " ", std::lround(at_rate.back().psnr * 100) / 100.0));
+            Row j2k;
+            try {
+                j2k = run_method(image, 4, budget, a.density, a.sampling, &decoded);
+                for (int m = 0; m < 4; ++m) {
+                    Image ours;
+                    at_rate.push_back(
+                        run_method(image, m, j2k.bytes, a.density, a.sampling, &ours));
+                    crops.push_back(centre_crop(ours, 256, 256));
+                    captions.push_back(
+                        str(kMethods[m], " ", std::lround(at_rate.back().psnr * 100) / 100.0));
+                }
+            } catch (const Error& e) {
+                throw Error(
+                    str(a.images[i], ": --bpp ", rate, " (", budget, " bytes): ", e.what()));
             }
             at_rate.push_back(j2k);
             crops.push_back(centre_crop(decoded, 256, 256));

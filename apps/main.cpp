@@ -175,14 +175,17 @@ int main(int argc, char** argv) {
         std::fprintf(stderr, "tesswave: %s (see --help)\n", e.what());
         return 2;
     } catch (const tesswave::Error& e) {
+        tesswave::remove_run_outputs();  // a failed run leaves nothing it wrote
         std::fprintf(stderr, "tesswave: %s\n", one_line(e.what()).c_str());
         return 1;
     } catch (const std::bad_alloc&) {
+        tesswave::remove_run_outputs();
         const std::string input = first_positional(app);
         std::fprintf(stderr, "tesswave: %sout of memory\n",
                      input.empty() ? "" : (input + ": ").c_str());
         return 1;
     } catch (const std::exception& e) {
+        tesswave::remove_run_outputs();
         std::fprintf(stderr, "tesswave: internal error: %s\n", one_line(e.what()).c_str());
         return 3;
     }

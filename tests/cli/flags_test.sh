@@ -55,6 +55,21 @@ refuse "analyze --keep 10,nan" "$dir/nan" "$tesswave" analyze "$s/scene.png" --k
     -o "$dir/nan"
 refuse "morph --fps NaN" "$dir/nan.mp4" "$tesswave" morph "$s/pair_a.png" "$s/pair_b.png" \
     --fps NaN -o "$dir/nan.mp4"
+# A rate that rounds to no byte is no rate (it used to mean the whole stream, or lossless).
+status=0
+"$tesswave" compress "$s/scene.png" --bpp 1e-9 -o "$dir/tiny.twi" 2>"$dir/err.txt" || status=$?
+if ((status == 1)) && grep -q "does not hold the" "$dir/err.txt" && [[ ! -e $dir/tiny.twi ]]; then
+    pass "compress --bpp 1e-9 refused: $(cat "$dir/err.txt")"
+else
+    fail "compress --bpp 1e-9: exit $status, $(cat "$dir/err.txt")"
+fi
+status=0
+"$tesswave" compare "$s/scene.png" --bpp 0.00001 -o "$dir/tiny" 2>"$dir/err.txt" || status=$?
+if ((status == 1)) && grep -q "scene.png: --bpp 1e-05" "$dir/err.txt" && [[ ! -e $dir/tiny ]]; then
+    pass "compare --bpp 0.00001 refused, nothing left: $(cat "$dir/err.txt")"
+else
+    fail "compare --bpp 0.00001: exit $status, left: $(ls "$dir/tiny" 2>&1), $(cat "$dir/err.txt")"
+fi
 check "-q compress --psnr 90" "$tesswave" -q compress "$s/scene.png" --psnr 90 -o "$dir/q.twi" -y
 if [[ ! -s $dir/err.txt ]]; then pass "-q hides the warning"; else fail "-q warned"; fi
 check "-v compress" "$tesswave" -v compress "$s/scene.png" -o "$dir/v.twi"
