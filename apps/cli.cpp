@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -284,6 +285,32 @@ CLI::Validator positive(const std::string& what) {
             return std::string();
         },
         "POSITIVE");
+}
+
+CLI::Validator output_extension(std::vector<std::string> extensions, const std::string& job,
+                                const std::string& kinds) {
+    return CLI::Validator(
+        [extensions = std::move(extensions), job, kinds](std::string& path) {
+            std::string ext = std::filesystem::path(path).extension().string();
+            std::transform(ext.begin(), ext.end(), ext.begin(),
+                           [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+            for (const std::string& e : extensions) {
+                if (ext == e) return std::string();
+            }
+            return str(path, ": ", job, " writes ", kinds);
+        },
+        "");
+}
+
+CLI::Validator image_output() {
+    return CLI::Validator(
+        [](std::string& path) {
+            if (image_writable(path)) return std::string();
+            return str(path,
+                       ": not an image file name that can be written (.png, .tif, .jpg, "
+                       ".exr, ...)");
+        },
+        "");
 }
 
 }  // namespace tesswave::cli

@@ -68,6 +68,13 @@ class ProgressBar {
 // A check for options that must be a positive (finite) number: "must be <what>, not '<text>'".
 CLI::Validator positive(const std::string& what);
 
+// The kind of an output follows from its extension: a check that it is one of `extensions` (with
+// their dots, any case), "<path>: <job> writes <kinds>" otherwise (exit 2, before any work).
+CLI::Validator output_extension(std::vector<std::string> extensions, const std::string& job,
+                                const std::string& kinds);
+// An image output: an extension that OpenImageIO writes.
+CLI::Validator image_output();
+
 // "WxH" or "W x H" into two positive numbers; throws CLI::ValidationError naming the option.
 std::pair<double, double> parse_size(const std::string& text, const std::string& option);
 std::pair<int, int> parse_cells(const std::string& text, const std::string& option);

@@ -170,7 +170,9 @@ void add_codec_commands(CLI::App& app) {
     auto c = std::make_shared<CompressArgs>();
     CLI::App* cmd = app.add_subcommand("compress", "Compress an image to .twi (mesh wavelets)");
     cmd->add_option("image", c->input, "Input image (PNG, JPEG, TIFF, ...)")->required();
-    cmd->add_option("-o,--output", c->output, "Output .twi file")->required();
+    cmd->add_option("-o,--output", c->output, "Output .twi file")
+        ->required()
+        ->check(output_extension({".twi"}, "compress", "a .twi file"));
     auto* bpp = cmd->add_option("--bpp", c->bpp, "Exact budget in bits per pixel (file size)")
                     ->check(positive("a number of bits per pixel"));
     auto* psnr = cmd->add_option("--psnr", c->psnr,
@@ -208,7 +210,9 @@ void add_codec_commands(CLI::App& app) {
     auto d = std::make_shared<DecompressArgs>();
     cmd = app.add_subcommand("decompress", "Decode a .twi file, or a prefix of it, to an image");
     cmd->add_option("input", d->input, "Input .twi file")->required();
-    cmd->add_option("-o,--output", d->output, "Output image (PNG, TIFF, ...)")->required();
+    cmd->add_option("-o,--output", d->output, "Output image (PNG, TIFF, ...)")
+        ->required()
+        ->check(image_output());
     auto* bytes = cmd->add_option("--bytes", d->bytes, "Decode only the first N bytes")
                       ->check(positive("a number of bytes"));
     auto* fraction = cmd->add_option("--fraction", d->fraction, "Decode only this fraction")

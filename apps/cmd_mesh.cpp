@@ -43,8 +43,8 @@ void add_domain(CLI::App* cmd, DomainArgs& d) {
     cmd->add_option("--like", d.like, "Take the domain size from this image");
 }
 
-void add_output(CLI::App* cmd, OutputArgs& o, const std::string& what) {
-    cmd->add_option("-o,--output", o.path, what)->required();
+void add_output(CLI::App* cmd, OutputArgs& o, const std::string& what, const CLI::Validator& kind) {
+    cmd->add_option("-o,--output", o.path, what)->required()->check(kind);
     cmd->add_flag("-y,--overwrite", o.overwrite, "Overwrite existing outputs");
 }
 
@@ -65,7 +65,8 @@ void add_grid(CLI::App& mesh_cmd) {
     auto* cmd = mesh_cmd.add_subcommand("grid", "Regular grid of CxR rectangular cells");
     cmd->add_option("--cells", args->cells, "Cells as CxR, e.g. 8x6")->required();
     add_domain(cmd, args->domain);
-    add_output(cmd, args->out, "Mesh file to write (.json)");
+    add_output(cmd, args->out, "Mesh file to write (.json)",
+               output_extension({".json"}, str("mesh ", cmd->get_name()), "a mesh file (.json)"));
     cmd->callback([args] {
         check_output(args->out.path, args->out.overwrite, {args->domain.like});
         auto [w, h] = args->domain.resolve();
@@ -98,7 +99,8 @@ void add_voronoi(CLI::App& mesh_cmd) {
         ->capture_default_str()
         ->check(CLI::Range(0, 1000));
     add_domain(cmd, args->domain);
-    add_output(cmd, args->out, "Mesh file to write (.json)");
+    add_output(cmd, args->out, "Mesh file to write (.json)",
+               output_extension({".json"}, str("mesh ", cmd->get_name()), "a mesh file (.json)"));
     cmd->callback([args] {
         check_output(args->out.path, args->out.overwrite, {args->domain.like});
         auto [w, h] = args->domain.resolve();
@@ -126,7 +128,8 @@ void add_triangulate(CLI::App& mesh_cmd) {
         ->capture_default_str()
         ->check(CLI::Range(0, 100000));
     add_domain(cmd, args->domain);
-    add_output(cmd, args->out, "Mesh file to write (.json)");
+    add_output(cmd, args->out, "Mesh file to write (.json)",
+               output_extension({".json"}, str("mesh ", cmd->get_name()), "a mesh file (.json)"));
     cmd->callback([args] {
         check_output(args->out.path, args->out.overwrite, {args->points, args->domain.like});
         auto [w, h] = args->domain.resolve();
@@ -250,7 +253,14 @@ void add_draw(CLI::App& mesh_cmd) {
     cmd->add_option("--line-width", args->draw.line_width, "Width of the thin lines in pixels")
         ->capture_default_str()
         ->check(CLI::Range(0.5, 20.0));
-    add_output(cmd, args->out, "Picture to write (.png, .jpg, .tif, ... or .svg)");
+    add_output(cmd, args->out, "Picture to write (.png, .jpg, .tif, ... or .svg)",
+               CLI::Validator(
+                   [](std::string& path) {
+                       if (std::filesystem::path(path).extension() == ".svg") return std::string();
+                       std::string image = path;
+                       return image_output()(image);
+                   },
+                   ""));
     cmd->callback([args] {
         check_output(args->out.path, args->out.overwrite, {args->path, args->image});
         const Mesh mesh = read_mesh(args->path);

@@ -500,7 +500,7 @@ void add_morph_commands(CLI::App& app) {
                              "The frame between two frames, from automatic correspondences");
     cmd->add_option("f0", b->f0, "First frame")->required();
     cmd->add_option("f1", b->f1, "Second frame")->required();
-    cmd->add_option("-o,--output", b->output, "Output image")->required();
+    cmd->add_option("-o,--output", b->output, "Output image")->required()->check(image_output());
     cmd->add_option("--at", b->at, "Time of the frame between 0 and 1")
         ->capture_default_str()
         ->check(CLI::Range(0.0, 1.0));

@@ -408,7 +408,9 @@ void add_video_commands(CLI::App& app) {
     enc->add_option("input", e->input,
                     "Clip: any file FFmpeg reads, a folder of frames, or raw .yuv (with --size)")
         ->required();
-    enc->add_option("-o,--output", e->output, "Output .twv file")->required();
+    enc->add_option("-o,--output", e->output, "Output .twv file")
+        ->required()
+        ->check(output_extension({".twv"}, "encode", "a .twv file"));
     auto* kbps = enc->add_option("--kbps", e->kbps,
                                  "Rate in kbit/s (each group gets its frames' share, its bands "
                                  "cut at one rate-distortion slope)")

@@ -108,6 +108,12 @@ Image read_image(const std::string& path, const ImageLimits& limits, ImageNotes*
     return image;
 }
 
+bool image_writable(const std::string& path) {
+    if (OIIO::ImageOutput::create(path)) return true;
+    (void)OIIO::geterror();  // the failure is the answer, not an error to report later
+    return false;
+}
+
 void write_image(const Image& image, const std::string& path) {
     const int channels = image.channels();
     if (image.width <= 0 || image.height <= 0 || channels <= 0) {

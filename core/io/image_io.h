@@ -37,5 +37,7 @@ Image read_image(const std::string& path, const ImageLimits& limits = {},
 // Atomic: writes a temporary beside `path`, renames on success. Values are clamped to [0,1] for
 // integer formats; the format falls back to 8 bit where the file type has no 16-bit or float.
 void write_image(const Image& image, const std::string& path);
+// Whether write_image has a writer for the path's extension.
+bool image_writable(const std::string& path);
 
 }  // namespace tesswave

@@ -48,6 +48,13 @@ if grep -q '"keep_percent": 1' "$dir/out.txt"; then pass "both percentages kept"
 # -q: nothing but errors (and --json); -v: a line per stage; both before or after the subcommand.
 check "-q compress" "$tesswave" compress "$s/scene.png" -o "$dir/q.twi" -q
 if [[ ! -s $dir/out.txt && ! -s $dir/err.txt ]]; then pass "-q is silent"; else fail "-q printed"; fi
+# The kind of an output follows from its extension: a mismatch is refused before any work.
+refuse "compress -o x.png" "$dir/x.png" "$tesswave" compress "$s/scene.png" -o "$dir/x.png"
+refuse "encode -o x.mp4" "$dir/x.mp4" "$tesswave" encode "$s/clip.mkv" -o "$dir/x.mp4"
+refuse "mesh grid -o x.png" "$dir/x.png" "$tesswave" mesh grid --cells 4x3 -o "$dir/x.png"
+refuse "inbetween -o a folder" "$dir/ib" "$tesswave" inbetween "$s/pair_a.png" "$s/pair_b.png" \
+    -o "$dir/ib"
+
 # NaN is no number for any option (CLI11's ranges let it through: every comparison is false).
 refuse "compress --psnr nan" "$dir/nan.twi" "$tesswave" compress "$s/scene.png" --psnr nan \
     -o "$dir/nan.twi"
