@@ -55,6 +55,16 @@ refuse "mesh grid -o x.png" "$dir/x.png" "$tesswave" mesh grid --cells 4x3 -o "$
 refuse "inbetween -o a folder" "$dir/ib" "$tesswave" inbetween "$s/pair_a.png" "$s/pair_b.png" \
     -o "$dir/ib"
 
+# The mesh generators' limits are --mesh's: no cell smaller than a pixel, at most 10^6 sites; a
+# few border points a side (their work grows with the square of the count).
+refuse "mesh grid finer than the pixels" "$dir/g.json" "$tesswave" mesh grid --cells 100x10 \
+    --size 64x48 -o "$dir/g.json"
+refuse "mesh voronoi -n 5000 on 64x48" "$dir/v.json" "$tesswave" mesh voronoi -n 5000 \
+    --size 64x48 -o "$dir/v.json"
+printf '10 10\n20 30\n40 20\n' >"$dir/three.txt"
+refuse "mesh triangulate --border-points 5000" "$dir/t.json" "$tesswave" mesh triangulate \
+    "$dir/three.txt" --size 64x48 --border-points 5000 -o "$dir/t.json"
+
 # NaN is no number for any option (CLI11's ranges let it through: every comparison is false).
 refuse "compress --psnr nan" "$dir/nan.twi" "$tesswave" compress "$s/scene.png" --psnr nan \
     -o "$dir/nan.twi"
