@@ -139,8 +139,11 @@ void warn(const std::string& line) {
 
 ProgressBar::ProgressBar() : enabled_(verbosity() == Verbosity::normal && ::isatty(2) != 0) {}
 
-ProgressBar::~ProgressBar() {
+ProgressBar::~ProgressBar() { clear(); }
+
+void ProgressBar::clear() {
     if (enabled_ && last_ >= 0) std::fprintf(stderr, "\r%70s\r", "");
+    last_ = -1;
 }
 
 void ProgressBar::update(double fraction, const char* stage) {

@@ -57,6 +57,9 @@ class ProgressBar {
     ProgressBar();
     ~ProgressBar();
     void update(double fraction, const char* stage);
+    // Erases the bar (before the command's summary line, which would otherwise follow it on the
+    // same terminal line); a later update draws it again.
+    void clear();
 
   private:
     bool enabled_;

@@ -100,6 +100,7 @@ void run_compress(CompressArgs a) {
     }
     write_file_atomic(
         a.output, std::string_view(reinterpret_cast<const char*>(r.file.data()), r.file.size()));
+    bar.clear();
     const double seconds = seconds_since(start);
     const double bpp = r.file.size() * 8.0 / pixels;
     nlohmann::json j = {{"input", a.input},

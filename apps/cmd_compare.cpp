@@ -296,6 +296,7 @@ void run_compare(const CompareArgs& a) {
     for (const Row& r : lossless) j["lossless"].push_back(to_json(r));
     for (const Row& r : resample) j["resample"].push_back(to_json(r));
     write_file_atomic((dir / "compare.json").string(), j.dump(2));
+    bar.clear();
     if (a.json) {
         std::printf("%s\n", j.dump(2).c_str());
     } else {

@@ -260,7 +260,7 @@ void run_morph(const MorphArgs& a) {
         sink.finish();
         report["frames"] = total;
     }
-    bar.update(1.0, "done");
+    bar.clear();
     report["seconds"] = seconds_since(start);
     if (a.json) {
         std::printf("%s\n", report.dump(2).c_str());
@@ -371,7 +371,7 @@ void run_compare_morph(const MorphArgs& a) {
     }
     write_image(contact_sheet(tiles, captions, {.columns = static_cast<int>(methods.size())}),
                 a.output);
-    bar.update(1.0, "done");
+    bar.clear();
     report["seconds"] = seconds_since(start);
     if (a.json) {
         std::printf("%s\n", report.dump(2).c_str());

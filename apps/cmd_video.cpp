@@ -213,6 +213,7 @@ void run_encode(const EncodeArgs& a) {
                  " bytes of padding let a decoder grant its decoding work (a tiny file may "
                  "only claim a little)"));
     }
+    bar.clear();
     const double seconds = seconds_since(start);
     const double fps = encoder->header().fps();
     const double kbps = bytes * 8.0 / 1000 / (n / fps);
@@ -310,6 +311,7 @@ void run_decode(const DecodeArgs& a) {
     if (sink.frames() == 0)
         throw Error(decoder.damage().empty() ? str(a.input, ": no frames") : decoder.damage());
     sink.finish();
+    bar.clear();
     const double seconds = seconds_since(start);
     if (!decoder.damage().empty()) {
         warn(
