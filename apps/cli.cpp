@@ -75,7 +75,12 @@ void check_output(const std::string& path, bool overwrite, const std::vector<std
         if (in.empty() || !fs::exists(in, ec)) continue;
         if (fs::equivalent(in, path, ec)) throw Error(path + ": output would overwrite an input");
     }
-    // A folder output (PNG frames) replaces the whole folder: no input may live inside it.
+    // A path with an extension names a file (the kind follows from it): a folder there would fail
+    // only after the work.
+    if (fs::is_directory(path, ec) && fs::path(path).has_extension()) {
+        throw Error(path + ": is a folder, and the output is a file");
+    }
+    // A folder output (PNG frames) gets its frames replaced: no input may live inside it.
     if (fs::is_directory(path, ec)) refuse_inputs_inside(path, inputs, overwrite);
     if (fs::exists(path, ec) && !overwrite) {
         throw Error(path + ": already exists (use -y to overwrite)");

@@ -52,7 +52,14 @@ void check_morph_output(const MorphArgs& a) {
             str("'", a.mesh,
                 "': a morph fits its meshes, give triangulation, grid[:CxR] or voronoi[:N]"));
     }
-    if (a.at < 0) return FrameSink::check_path(a.output);
+    if (a.at < 0) {
+        FrameSink::check_path(a.output);
+        if (fs::path(a.output).extension() == ".gif" && a.fps > 100) {
+            throw CLI::ValidationError("--fps",
+                                       str(a.fps, ": a GIF shows at most 100 frames a second"));
+        }
+        return;
+    }
     const std::string ext = fs::path(a.output).extension().string();
     if (ext != ".png" && ext != ".tif" && ext != ".tiff" && ext != ".jpg" && ext != ".exr") {
         throw CLI::ValidationError(
@@ -442,7 +449,7 @@ void add_morph_commands(CLI::App& app) {
     cmd->add_option("--frames", a->frames, "Number of frames from A to B")
         ->capture_default_str()
         ->check(CLI::Range(1, 100000));
-    cmd->add_option("--fps", a->fps, "Frames per second of MP4/GIF output")
+    cmd->add_option("--fps", a->fps, "Frames per second of MP4/GIF output (a GIF: at most 100)")
         ->capture_default_str()
         ->check(CLI::Range(0.1, 1000.0));
     cmd->add_flag("--loop", a->loop, "A to B and back to A (2N - 2 frames)");

@@ -65,6 +65,18 @@ printf '10 10\n20 30\n40 20\n' >"$dir/three.txt"
 refuse "mesh triangulate --border-points 5000" "$dir/t.json" "$tesswave" mesh triangulate \
     "$dir/three.txt" --size 64x48 --border-points 5000 -o "$dir/t.json"
 
+# Checked before the work, not after it: a folder where a file goes, a GIF's frame rate.
+mkdir -p "$dir/afolder.twi"
+status=0
+"$tesswave" compress "$s/scene.png" -o "$dir/afolder.twi" -y 2>"$dir/err.txt" || status=$?
+if ((status == 1)) && grep -q "is a folder, and the output is a file" "$dir/err.txt"; then
+    pass "a folder where the .twi goes is refused: $(cat "$dir/err.txt")"
+else
+    fail "a folder where the .twi goes: exit $status, $(cat "$dir/err.txt")"
+fi
+refuse "morph --fps 500 to a GIF" "$dir/fast.gif" "$tesswave" morph "$s/pair_a.png" \
+    "$s/pair_b.png" --fps 500 -o "$dir/fast.gif"
+
 # NaN is no number for any option (CLI11's ranges let it through: every comparison is false).
 refuse "compress --psnr nan" "$dir/nan.twi" "$tesswave" compress "$s/scene.png" --psnr nan \
     -o "$dir/nan.twi"
