@@ -148,6 +148,7 @@ void add_triangulate(CLI::App& mesh_cmd) {
         check_output(args->out.path, args->out.overwrite, {args->points, args->domain.like});
         auto [w, h] = args->domain.resolve();
         const auto points = read_points(args->points);
+        if (points.empty()) throw Error(str(args->points, ": no points"));
         Mesh mesh;
         try {
             mesh = triangulate_points(w, h, points, {.border_points_per_side = args->border});

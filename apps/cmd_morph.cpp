@@ -425,7 +425,8 @@ void add_morph_commands(CLI::App& app) {
     cmd->add_option("a", a->a, "First image")->required();
     cmd->add_option("b", a->b, "Second image")->required();
     cmd->add_option("-o,--output", a->output,
-                    "out.mp4, out.mkv, out.gif, a folder for PNG frames, or an image with --at")
+                    "out.mp4 or .mov (H.264), .mkv (lossless FFV1), .y4m, .gif, a folder for PNG "
+                    "frames, or an image with --at")
         ->required();
     auto* points_a =
         cmd->add_option("--points-a", a->points_a, "Points on A: 'x y' lines or a JSON list");

@@ -476,7 +476,8 @@ void add_video_commands(CLI::App& app) {
     auto* dec = app.add_subcommand("decode", "Decompress a .twv clip");
     dec->add_option("input", d->input, "Input .twv file")->required();
     dec->add_option("-o,--output", d->output,
-                    "Output: .mp4 (H.264), .mkv (lossless FFV1), .y4m, or a folder for PNG frames")
+                    "Output: .mp4 or .mov (H.264), .mkv (lossless FFV1), .y4m, .gif, or a folder "
+                    "for PNG frames")
         ->required();
     dec->add_option("--range", d->frames, "Frames A:B (inclusive; A: or :B open), or one frame");
     add_max_pixels_option(dec, d->max_pixels);

@@ -5,17 +5,20 @@
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
 #include <new>
 #include <string>
+#include <vector>
 
 #include "cli.h"
 #include "core/io/file_io.h"
 #include "core/math/error.h"
 #include "core/math/parallel.h"
+#include "core/math/strings.h"
 
 namespace {
 
@@ -98,6 +101,53 @@ void refuse_nan(CLI::App& app) {
     for (CLI::App* sub : app.get_subcommands({})) refuse_nan(*sub);
 }
 
+// The subcommand a mistyped name was meant to be: the one fewest edits away (at most 3).
+std::string nearest_command(const CLI::App& app, const std::string& typed) {
+    std::string best;
+    size_t best_distance = 4;
+    for (const CLI::App* sub : app.get_subcommands([](const CLI::App*) { return true; })) {
+        const std::string& name = sub->get_name();
+        std::vector<size_t> row(name.size() + 1);
+        for (size_t j = 0; j <= name.size(); ++j) row[j] = j;
+        for (size_t i = 1; i <= typed.size(); ++i) {
+            size_t diagonal = row[0];
+            row[0] = i;
+            for (size_t j = 1; j <= name.size(); ++j) {
+                const size_t up = row[j];
+                row[j] = std::min(
+                    {row[j] + 1, row[j - 1] + 1, diagonal + (typed[i - 1] == name[j - 1] ? 0 : 1)});
+                diagonal = up;
+            }
+        }
+        if (row[name.size()] < best_distance) best = name, best_distance = row[name.size()];
+    }
+    return best;
+}
+
+// A word where a subcommand goes that names none: "unknown command" (CLI11 says only that a
+// subcommand is required). `app` is the top level or a group of subcommands (mesh).
+void check_command_name(const CLI::App& app, int argc, char** argv, int from) {
+    for (int i = from; i < argc; ++i) {
+        const std::string arg = argv[i];
+        if (arg == "--threads") ++i;  // its value
+        if (arg.empty() || arg[0] == '-') continue;
+        const CLI::App* sub = nullptr;
+        for (const CLI::App* s : app.get_subcommands([](const CLI::App*) { return true; })) {
+            if (s->get_name() == arg) sub = s;
+        }
+        if (!sub) {
+            const std::string near = nearest_command(app, arg);
+            throw CLI::ValidationError(
+                tesswave::str("unknown command '", arg, "'",
+                              near.empty() ? "" : tesswave::str(" (did you mean '", near, "'?)")));
+        }
+        if (!sub->get_subcommands([](const CLI::App*) { return true; }).empty()) {
+            check_command_name(*sub, argc, argv, i + 1);
+        }
+        return;
+    }
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -161,6 +211,7 @@ int main(int argc, char** argv) {
     refuse_nan(app);
     install_interrupt_handlers();
     try {
+        check_command_name(app, argc, argv, 1);
         app.parse(argc, argv);
         tesswave::keep_run_outputs();  // complete: what the run wrote stays
     } catch (const CLI::CallForHelp& e) {

@@ -77,6 +77,24 @@ fi
 refuse "morph --fps 500 to a GIF" "$dir/fast.gif" "$tesswave" morph "$s/pair_a.png" \
     "$s/pair_b.png" --fps 500 -o "$dir/fast.gif"
 
+# A mistyped command is named, with the nearest one; an empty point list is no triangulation.
+status=0
+"$tesswave" comprss "$s/scene.png" 2>"$dir/err.txt" || status=$?
+if ((status == 2)) && grep -q "unknown command 'comprss' (did you mean 'compress'?)" "$dir/err.txt"; then
+    pass "a mistyped command: $(cat "$dir/err.txt")"
+else
+    fail "a mistyped command: exit $status, $(cat "$dir/err.txt")"
+fi
+: >"$dir/none.txt"
+status=0
+"$tesswave" mesh triangulate "$dir/none.txt" --size 64x48 -o "$dir/none.json" 2>"$dir/err.txt" ||
+    status=$?
+if ((status == 1)) && grep -q "none.txt: no points" "$dir/err.txt" && [[ ! -e $dir/none.json ]]; then
+    pass "an empty point list: $(cat "$dir/err.txt")"
+else
+    fail "an empty point list: exit $status, $(cat "$dir/err.txt")"
+fi
+
 # NaN is no number for any option (CLI11's ranges let it through: every comparison is false).
 refuse "compress --psnr nan" "$dir/nan.twi" "$tesswave" compress "$s/scene.png" --psnr nan \
     -o "$dir/nan.twi"
