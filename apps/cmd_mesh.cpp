@@ -280,16 +280,26 @@ void add_draw(CLI::App& mesh_cmd) {
         check_output(args->out.path, args->out.overwrite, {args->path, args->image});
         const Mesh mesh = read_mesh(args->path);
         require_valid(mesh, args->path);
+        // The drawing's errors (a level too fine for the picture) name the mesh file.
+        const auto drawn = [&](const auto& draw) {
+            try {
+                return draw();
+            } catch (const Error& e) {
+                throw Error(str(args->path, ": ", e.what()));
+            }
+        };
         const bool svg = std::filesystem::path(args->out.path).extension() == ".svg";
-        if (svg && args->draw.levels > 0) {
-            // One SVG element a T_levels edge: say so before writing hundreds of megabytes.
+        // One SVG element a T_levels edge: say so before writing hundreds of megabytes (a level
+        // too fine for the picture is refused by the drawing itself).
+        const auto warn_svg_size = [&] {
+            if (!svg || args->draw.levels == 0) return;
             const int64_t edges = level_counts(mesh, args->draw.levels)[args->draw.levels].edges;
             if (edges > 1'000'000) {
                 warn(str("warning: ", args->out.path, ": ", edges, " lines at level ",
                          args->draw.levels, " make an SVG of about ", edges * 100 / 1'000'000,
                          " MB (fewer --levels, or a PNG, is lighter)"));
             }
-        }
+        };
         if (svg) {
             std::string href;
             if (!args->image.empty()) {
@@ -298,14 +308,18 @@ void add_draw(CLI::App& mesh_cmd) {
                 href =
                     std::filesystem::relative(std::filesystem::absolute(args->image), dir).string();
             }
-            write_file_atomic(args->out.path, draw_mesh_svg(mesh, args->draw, href));
+            const std::string picture =
+                drawn([&] { return draw_mesh_svg(mesh, args->draw, href); });
+            warn_svg_size();
+            write_file_atomic(args->out.path, picture);
         } else {
             std::unique_ptr<Image> background;
             if (!args->image.empty()) {
                 background = std::make_unique<Image>(read_input(args->image));
                 if (args->draw.scale == 0) args->draw.scale = background->width / mesh.width;
             }
-            write_image(draw_mesh(mesh, args->draw, background.get()), args->out.path);
+            write_image(drawn([&] { return draw_mesh(mesh, args->draw, background.get()); }),
+                        args->out.path);
         }
         std::printf("%s: T0 and %d refinement levels -> %s\n", args->path.c_str(),
                     args->draw.levels, args->out.path.c_str());

@@ -42,6 +42,19 @@ double pick_scale(const Mesh& mesh, const DrawOptions& options) {
     return 1024.0 / std::max(mesh.width, mesh.height);
 }
 
+// A level whose edges outnumber twice the picture's pixels draws a flat colour at a cost of
+// gigabytes (a 2000-cell Voronoi mesh at level 6: 24 M edges, 3.7 GB and 11 s for 1024x768):
+// refused before the hierarchy is built.
+void check_drawable(const Mesh& mesh, int levels, double scale) {
+    if (levels == 0) return;
+    const double pixels = std::max(1.0, mesh.width * scale) * std::max(1.0, mesh.height * scale);
+    const int64_t edges = level_counts(mesh, levels)[levels].edges;
+    if (static_cast<double>(edges) > 2 * pixels) {
+        throw Error(str("draw: level ", levels, " has ", edges, " edges, more than a picture of ",
+                        static_cast<int64_t>(pixels), " pixels can show (draw fewer levels)"));
+    }
+}
+
 struct Style {
     double r, g, b, width;
 };
@@ -65,6 +78,7 @@ Image draw_mesh_raster(const Mesh& mesh, const DrawOptions& options, const Image
     if (w < 1 || h < 1 || int64_t{w} * h > 100'000'000) {
         throw Error(str("draw: output of ", w, "x", h, " pixels is out of range"));
     }
+    check_drawable(mesh, options.levels, s);
     const auto segs = segments(mesh, options.levels);
     cv::Mat canvas(h, w, CV_8UC3, cv::Scalar(24, 24, 24));
     if (background) {
@@ -110,6 +124,7 @@ Image draw_mesh(const Mesh& mesh, const DrawOptions& options, const Image* backg
 std::string draw_mesh_svg(const Mesh& mesh, const DrawOptions& options,
                           const std::string& background_href) {
     const double s = pick_scale(mesh, options);
+    check_drawable(mesh, options.levels, s);
     const auto segs = segments(mesh, options.levels);
     std::string out =
         str("<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"", mesh.width * s, "\" height=\"",

@@ -95,6 +95,17 @@ else
     fail "an empty point list: exit $status, $(cat "$dir/err.txt")"
 fi
 
+# A refinement level with more edges than the picture has pixels is refused before the
+# hierarchy is built (a 2000-cell mesh at level 6 took 3.7 GB).
+"$tesswave" mesh voronoi -n 200 --size 256x192 -o "$dir/v200.json" >/dev/null 2>&1
+status=0
+"$tesswave" mesh draw "$dir/v200.json" -J 6 -o "$dir/v200.png" 2>"$dir/err.txt" || status=$?
+if ((status == 1)) && grep -q "v200.json: draw: level 6 has" "$dir/err.txt" && [[ ! -e $dir/v200.png ]]; then
+    pass "mesh draw too fine for the picture: $(cat "$dir/err.txt")"
+else
+    fail "mesh draw too fine: exit $status, $(cat "$dir/err.txt")"
+fi
+
 # NaN is no number for any option (CLI11's ranges let it through: every comparison is false).
 refuse "compress --psnr nan" "$dir/nan.twi" "$tesswave" compress "$s/scene.png" --psnr nan \
     -o "$dir/nan.twi"
