@@ -187,8 +187,31 @@ void add_validate(CLI::App& mesh_cmd) {
         }
         if (!report.ok()) {
             if (!args->json) {
+                // The first three problems of each kind (the message with its numbers left
+                // out), then how many more of that kind there are.
+                std::vector<std::pair<std::string, int>> kinds;
+                const auto kind_of = [](const std::string& p) {
+                    std::string k;
+                    for (char c : p) {
+                        const bool digit = c >= '0' && c <= '9';
+                        if (!digit || k.empty() || k.back() != '#') k += digit ? '#' : c;
+                    }
+                    return k;
+                };
                 for (const auto& p : report.problems) {
-                    std::fprintf(stderr, "tesswave: %s: %s\n", args->path.c_str(), p.c_str());
+                    const std::string k = kind_of(p);
+                    auto it = std::find_if(kinds.begin(), kinds.end(),
+                                           [&](const auto& e) { return e.first == k; });
+                    if (it == kinds.end()) it = kinds.insert(kinds.end(), {k, 0});
+                    if (++it->second <= 3) {
+                        std::fprintf(stderr, "tesswave: %s: %s\n", args->path.c_str(), p.c_str());
+                    }
+                }
+                for (const auto& [k, count] : kinds) {
+                    if (count > 3) {
+                        std::fprintf(stderr, "tesswave: %s: %d more like \"%s\"\n",
+                                     args->path.c_str(), count - 3, k.c_str());
+                    }
                 }
                 std::fprintf(stderr, "tesswave: %s: %zu problem%s%s\n", args->path.c_str(),
                              report.problems.size(), report.problems.size() == 1 ? "" : "s",

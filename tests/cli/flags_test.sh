@@ -106,6 +106,16 @@ else
     fail "mesh draw too fine: exit $status, $(cat "$dir/err.txt")"
 fi
 
+# mesh validate shows three problems of a kind, then how many more there are.
+printf '{"domain":[10,10],"vertices":[[0,0],[10,0],[10,10],[0,10],[5,5],[20,20],[21,20],[22,20],[23,20],[24,20]],"faces":[[0,1,4],[1,2,4],[2,3,4],[3,0,4]]}' \
+    >"$dir/outside.json"
+"$tesswave" mesh validate "$dir/outside.json" 2>"$dir/err.txt"
+if (($(grep -c "outside the domain" "$dir/err.txt") == 4)) && grep -q '2 more like "vertex #' "$dir/err.txt"; then
+    pass "mesh validate groups the problems of a kind"
+else
+    fail "mesh validate: $(cat "$dir/err.txt")"
+fi
+
 # NaN is no number for any option (CLI11's ranges let it through: every comparison is false).
 refuse "compress --psnr nan" "$dir/nan.twi" "$tesswave" compress "$s/scene.png" --psnr nan \
     -o "$dir/nan.twi"
