@@ -43,9 +43,14 @@ void FrameSink::check_path(const std::string& path, const std::string& option) {
 
 FrameSink::FrameSink(const std::string& path, int width, int height, double fps,
                      const H264Settings& h264)
-    : path_(path), fps_(fps) {
+    : path_(path) {
     check_path(path);
-    if (extension(path) == ".gif") return;
+    if (extension(path) == ".gif") {
+        // Ordered dithering: steady from frame to frame (no crawling noise) and about a tenth
+        // smaller than error diffusion.
+        gif_ = std::make_unique<GifWriter>(path, width, height, fps, GifOptions{.dither = "bayer"});
+        return;
+    }
     if (is_video_path(path)) {
         const std::string e = extension(path);
         const VideoCodec codec = e == ".mkv"   ? VideoCodec::ffv1
@@ -79,8 +84,8 @@ FrameSink::~FrameSink() {
 void FrameSink::write(const Image& frame) {
     if (video_) {
         video_->write(frame);
-    } else if (folder_.empty()) {
-        gif_.push_back(frame);
+    } else if (gif_) {
+        gif_->write(frame);
     } else {
         char name[32];
         std::snprintf(name, sizeof name, "frame_%05lld.png", static_cast<long long>(frames_));
@@ -92,11 +97,9 @@ void FrameSink::write(const Image& frame) {
 void FrameSink::finish() {
     if (video_) {
         video_->finish();
-    } else if (folder_.empty()) {
+    } else if (gif_) {
         if (frames_ == 0) throw Error(str(path_, ": no frames to write"));
-        // Ordered dithering: steady from frame to frame (no crawling noise) and about a tenth
-        // smaller than error diffusion.
-        write_gif(gif_, path_, fps_, {.dither = "bayer"});
+        gif_->finish();
     } else {
         if (frames_ == 0) throw Error(str(path_, ": no frames to write"));
         move_frames_into_place();

@@ -41,9 +41,8 @@ class FrameSink {
     void move_frames_into_place();
 
     std::string path_, folder_;
-    double fps_ = 25;
     std::unique_ptr<VideoWriter> video_;
-    std::vector<Image> gif_;  // a GIF's palette comes from all its frames
+    std::unique_ptr<GifWriter> gif_;  // one palette from all the frames
     int64_t frames_ = 0;
     bool finished_ = false;
 };

@@ -120,48 +120,77 @@ std::string gif_filter(const GifOptions& options) {
                ":reserve_transparent=0[p];[b][p]paletteuse=dither=", options.dither);
 }
 
-void write_gif(const std::vector<Image>& frames, const std::string& path, double fps,
-               const GifOptions& options) {
+struct GifWriter::State {
+    State(const std::string& where, int w, int h, double fps, const GifOptions& options)
+        : path(where),
+          width(w),
+          height(h),
+          rate(av_d2q(fps, 1001000)),
+          graph(make_graph(path, width, height, AV_PIX_FMT_RGB24, rate, gif_filter(options))),
+          output(path, "gif", "gif") {}
+    std::string path;
+    int width, height;
+    AVRational rate;
+    Graph graph;
+    libav::Output output;
+    libav::Frame rgb, paletted;
+    int64_t frames = 0;
+};
+
+GifWriter::GifWriter(const std::string& path, int width, int height, double fps,
+                     const GifOptions& options) {
     libav::silence();
-    if (frames.empty()) throw Error(path + ": no frames for the GIF");
-    const int width = frames[0].width, height = frames[0].height;
     if (width < 1 || height < 1 || width > 16384 || height > 16384) {
         throw Error(str(path, ": frame size ", width, "x", height, " is outside 1..16384"));
-    }
-    for (size_t i = 0; i < frames.size(); ++i) {
-        check_frame(frames[i], width, height, path, str("frame ", i).c_str());
     }
     if (!(fps > 0 && fps <= 100)) throw Error(str(path, ": GIF fps ", fps, " not in (0, 100]"));
     if (options.loop < -1 || options.loop > 65535) {
         throw Error(str(path, ": GIF loop ", options.loop, " is outside -1..65535"));
     }
-    const std::string filters = gif_filter(options);
-    const AVRational rate = av_d2q(fps, 1001000);
-    Graph g = make_graph(path, width, height, AV_PIX_FMT_RGB24, rate, filters);
+    state_ = std::make_unique<State>(path, width, height, fps, options);
+    State& s = *state_;
+    AVCodecContext* enc = s.output.encoder();
+    enc->width = av_buffersink_get_w(s.graph.sink);
+    enc->height = av_buffersink_get_h(s.graph.sink);
+    enc->pix_fmt = static_cast<AVPixelFormat>(av_buffersink_get_format(s.graph.sink));
+    enc->time_base = av_buffersink_get_time_base(s.graph.sink);
+    enc->framerate = s.rate;
+    s.output.open({}, {{"loop", str(options.loop)}});
+    s.rgb = libav::alloc_frame(AV_PIX_FMT_RGB24, width, height, path);
+    s.paletted.reset(av_frame_alloc());
+    if (!s.paletted) throw Error(path + ": out of memory for a frame");
+}
 
-    libav::Output output(path, "gif", "gif");
-    AVCodecContext* enc = output.encoder();
-    enc->width = av_buffersink_get_w(g.sink);
-    enc->height = av_buffersink_get_h(g.sink);
-    enc->pix_fmt = static_cast<AVPixelFormat>(av_buffersink_get_format(g.sink));
-    enc->time_base = av_buffersink_get_time_base(g.sink);
-    enc->framerate = rate;
-    output.open({}, {{"loop", str(options.loop)}});
+GifWriter::~GifWriter() = default;
 
-    libav::Frame rgb = libav::alloc_frame(AV_PIX_FMT_RGB24, width, height, path);
-    libav::Frame paletted(av_frame_alloc());
-    if (!paletted) throw Error(path + ": out of memory for a frame");
-    const auto encode = [&](const AVFrame* frame) { output.send(frame); };
-    for (size_t i = 0; i < frames.size(); ++i) {
-        libav::check(av_frame_make_writable(rgb.get()), path, "out of memory");
-        libav::fill_frame(frames[i], rgb.get());
-        rgb->pts = static_cast<int64_t>(i);
-        push(g, rgb.get(), path);
-        drain(g, paletted.get(), path, encode);  // palettegen holds everything until the end
+void GifWriter::write(const Image& frame) {
+    State& s = *state_;
+    check_frame(frame, s.width, s.height, s.path, str("frame ", s.frames).c_str());
+    libav::check(av_frame_make_writable(s.rgb.get()), s.path, "out of memory");
+    libav::fill_frame(frame, s.rgb.get());
+    s.rgb->pts = s.frames++;
+    push(s.graph, s.rgb.get(), s.path);
+    // palettegen holds every frame until the end: nothing comes out yet.
+    drain(s.graph, s.paletted.get(), s.path, [&](const AVFrame* f) { s.output.send(f); });
+}
+
+void GifWriter::finish() {
+    State& s = *state_;
+    if (s.frames == 0) throw Error(s.path + ": no frames for the GIF");
+    libav::check(av_buffersrc_add_frame(s.graph.source, nullptr), s.path,
+                 "cannot end the filter input");
+    if (!drain(s.graph, s.paletted.get(), s.path, [&](const AVFrame* f) { s.output.send(f); })) {
+        throw Error(s.path + ": filter graph stalled");
     }
-    libav::check(av_buffersrc_add_frame(g.source, nullptr), path, "cannot end the filter input");
-    if (!drain(g, paletted.get(), path, encode)) throw Error(path + ": filter graph stalled");
-    output.finish();
+    s.output.finish();
+}
+
+void write_gif(const std::vector<Image>& frames, const std::string& path, double fps,
+               const GifOptions& options) {
+    if (frames.empty()) throw Error(path + ": no frames for the GIF");
+    GifWriter gif(path, frames[0].width, frames[0].height, fps, options);
+    for (const Image& frame : frames) gif.write(frame);
+    gif.finish();
 }
 
 // ---- minterpolate ------------------------------------------------------------------------------

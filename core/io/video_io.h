@@ -98,6 +98,23 @@ void write_gif(const std::vector<Image>& frames, const std::string& path, double
                const GifOptions& options = {});
 std::string gif_filter(const GifOptions& options = {});
 
+// The same GIF, given a frame at a time: the filter graph keeps each frame as RGB24 (3 bytes a
+// pixel) until finish() has the palette, so the caller need not hold the frames (a 300-frame
+// morph held them as float planes: 734 MB). Throws Error as write_gif does; a writer destroyed
+// before finish() leaves no file.
+class GifWriter {
+  public:
+    GifWriter(const std::string& path, int width, int height, double fps,
+              const GifOptions& options = {});
+    ~GifWriter();
+    void write(const Image& frame);
+    void finish();
+
+  private:
+    struct State;
+    std::unique_ptr<State> state_;
+};
+
 struct VideoReaderOptions {
     int64_t max_pixels = int64_t{1} << 28;  // a frame; checked before the decoder allocates
     // Single-image inputs (FFmpeg's image2 and *_pipe demuxers: a PNG, JPEG, ... possibly
