@@ -43,6 +43,13 @@ void add_domain(CLI::App* cmd, DomainArgs& d) {
     cmd->add_option("--like", d.like, "Take the domain size from this image");
 }
 
+bool is_svg(const std::string& path) {
+    std::string ext = std::filesystem::path(path).extension().string();
+    std::transform(ext.begin(), ext.end(), ext.begin(),
+                   [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+    return ext == ".svg";
+}
+
 void add_output(CLI::App* cmd, OutputArgs& o, const std::string& what, const CLI::Validator& kind) {
     cmd->add_option("-o,--output", o.path, what)->required()->check(kind);
     cmd->add_flag("-y,--overwrite", o.overwrite, "Overwrite existing outputs");
@@ -294,7 +301,7 @@ void add_draw(CLI::App& mesh_cmd) {
     add_output(cmd, args->out, "Picture to write (.png, .jpg, .tif, ... or .svg)",
                CLI::Validator(
                    [](std::string& path) {
-                       if (std::filesystem::path(path).extension() == ".svg") return std::string();
+                       if (is_svg(path)) return std::string();
                        std::string image = path;
                        return image_output()(image);
                    },
@@ -311,7 +318,7 @@ void add_draw(CLI::App& mesh_cmd) {
                 throw Error(str(args->path, ": ", e.what()));
             }
         };
-        const bool svg = std::filesystem::path(args->out.path).extension() == ".svg";
+        const bool svg = is_svg(args->out.path);
         // One SVG element a T_levels edge: say so before writing hundreds of megabytes (a level
         // too fine for the picture is refused by the drawing itself).
         const auto warn_svg_size = [&] {

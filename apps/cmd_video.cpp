@@ -446,8 +446,9 @@ void add_video_commands(CLI::App& app) {
                   "group along time, which takes a group of latency and gives more quality per "
                   "bit");
     enc->add_option("--repeat-psnr", e->repeat_psnr,
-                    "A frame this close (PSNR in dB) to the frame before it is shown again "
-                    "instead of coded, as x264 skips it (lifted groups; 0: never; default " +
+                    "A frame this close (PSNR in dB, over the whole frame) to the last frame coded "
+                    "is shown again instead of coded (lifted groups; 0: never; with --psnr Q at "
+                    "least Q + 6; default " +
                         str(video::VideoEncodeOptions{}.repeat_psnr) + ")")
         ->check(CLI::Range(0.0, 200.0));
     enc->add_option("--intra-weight", e->intra_weight,

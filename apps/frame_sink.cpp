@@ -133,7 +133,10 @@ void FrameSink::move_frames_into_place() {
         if (is_frame(e.path()) && !e.is_directory()) stale.push_back(e.path());
     }
     if (ec) fail(ec);
-    for (const fs::path& p : stale) fs::remove(p, ec);
+    for (const fs::path& p : stale) {
+        fs::remove(p, ec);
+        if (ec) fail(ec);  // a stale frame left would pass as part of the new sequence
+    }
     for (int64_t k = 0; k < frames_; ++k) {
         char name[32];
         std::snprintf(name, sizeof name, "frame_%05lld.png", static_cast<long long>(k));

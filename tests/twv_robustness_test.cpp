@@ -80,7 +80,7 @@ std::vector<uint64_t> frame_ends(const Bytes& file, std::vector<uint64_t>* bound
     ByteReader r(std::span<const uint8_t>(file).subspan(index_offset), "index");
     r.u8("tag");
     const auto size = r.varint("size");
-    const TwvIndex index = read_twv_index(r.bytes(size, "payload"), index_offset, "index");
+    const TwvIndex index = read_twv_index(r.bytes(size, "payload"), index_offset, "index", {}, 5);
     std::vector<uint64_t> starts = index.frame_offsets;
     starts.insert(starts.end(), index.group_offsets.begin(), index.group_offsets.end());
     starts.push_back(index_offset);
@@ -377,7 +377,7 @@ TEST(TwvRobustness, ASmallFileClaimsNoMoreThanItsBytesJustify) {
 int64_t expect_decoding_stops_at_the_allowed_work(const std::string& path,
                                                   const TwvHeader& header) {
     const int64_t allowed = twv_work_allowed(static_cast<int64_t>(fs::file_size(path))) /
-                            (int64_t{header.width} * header.height);
+                            twv_frame_work(int64_t{header.width} * header.height);
     EXPECT_LT(allowed, 100);
     VideoDecoder decoder(path);
     Image skipped;

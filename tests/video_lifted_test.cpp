@@ -104,6 +104,41 @@ TEST(VideoCodec, RepeatedFramesAreShownAgainNotCoded) {
     fs::remove(path);
 }
 
+// A tracked group whose first frame repeats: its second frame's motion is predicted from the
+// first alone (slots, not frame numbers, say which frames came before), in a group after the
+// first too, reading straight through and after a seek.
+TEST(VideoCodec, RepeatsAtATrackedGroupsStartDecodeAsCoded) {
+    const std::vector<Image> unique = clip(slow_pan(8));
+    std::vector<Image> frames;
+    for (int t = 0; t < 8; ++t) {
+        frames.push_back(unique[t]);
+        if (t == 3 || t == 5) frames.push_back(unique[t]);  // the first frames of groups 2 and 3
+    }
+    const std::string path = temp_path("tracked_repeats.twv");
+    const Coded coded = encode(frames, path, {.group = 3, .quality = 36, .grid_groups = false});
+    ASSERT_EQ(coded.frames.size(), frames.size());
+    // Groups of three shown frames: 0-2, 3-5 (3 repeated as 4), 6-8 (6 repeated as 7), 9.
+    for (size_t t : {size_t{4}, size_t{7}}) {
+        EXPECT_TRUE(coded.frames[t].repeat) << t;
+        EXPECT_TRUE(coded.frames[t - 1].first_in_group) << t;
+    }
+    // The groups after the first move (tracked, not the static mesh): motion decodes in them.
+    EXPECT_FALSE(coded.frames[3].static_group);
+    EXPECT_GT(coded.frames[5].motion_bytes + coded.frames[8].motion_bytes, 0);
+    const std::vector<Image> decoded = decode_all(path);
+    ASSERT_EQ(decoded.size(), frames.size());
+    for (size_t t = 0; t < frames.size(); ++t) {
+        SCOPED_TRACE(t);
+        expect_identical(decoded[t], coded.reconstructions[t]);
+    }
+    VideoDecoder decoder(path);
+    Image at;
+    ASSERT_TRUE(decoder.seek(8));
+    ASSERT_TRUE(decoder.read(at));
+    expect_identical(at, decoded[8]);
+    fs::remove(path);
+}
+
 // 4:2:0: the finest chroma detail is not coded, so at the same rate luma gets more of the bytes.
 TEST(VideoCodec, Chroma420LeavesOutTheFinestChromaDetail) {
     const std::vector<Image> frames = clip(small_pan());

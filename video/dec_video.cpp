@@ -156,12 +156,14 @@ TwvFrame VideoDecoder::frame_of(const Chunk& chunk, const std::string& what, int
 }
 
 // The frame's vertex positions from its motion and the frames before (vertices_, previous_).
-std::vector<Vec2> VideoDecoder::frame_vertices(const TwvFrame& f, const std::string& what) const {
+// By the frame's slot in its group, not its number: repeated frames carry no motion.
+std::vector<Vec2> VideoDecoder::frame_vertices(const TwvFrame& f, const std::string& what,
+                                               int64_t slot) const {
     if (!domain_->is_mesh()) return {};
     const std::vector<Vec2>& rest = domain_->shape().mesh.vertices;
     if (group_.motion != TwvMotion::tracked) return rest;
-    const bool first = next_frame_ == group_.first_frame;
-    const bool two_back = next_frame_ >= group_.first_frame + 2;
+    const bool first = slot == 0;
+    const bool two_back = slot >= 2;
     const std::vector<Vec2>& from = first ? rest : vertices_;
     if (f.motion.empty()) return from;
     return decode_motion(f.motion, from,
@@ -172,7 +174,7 @@ std::vector<Vec2> VideoDecoder::frame_vertices(const TwvFrame& f, const std::str
 // Counts `frames` frames of decoding against what the file's size allows (TwvLimits); throws
 // Error before the work when it would go past it.
 void VideoDecoder::charge(int64_t frames, const std::string& what) {
-    const int64_t pixels = int64_t{header_.width} * header_.height * frames;
+    const int64_t pixels = twv_frame_work(int64_t{header_.width} * header_.height) * frames;
     const int64_t allowed = twv_work_allowed(static_cast<int64_t>(file_size_), limits_);
     if (pixels > allowed - work_) {
         throw Error(str(what, ": decoding would pass the ", allowed, " frame pixels that a ",
@@ -184,8 +186,9 @@ void VideoDecoder::charge(int64_t frames, const std::string& what) {
 void VideoDecoder::decode_frame(const Chunk& chunk, Image* out) {
     const std::string what = str(path_, ": frame ", next_frame_);
     charge(1, what);
-    TwvFrame f = frame_of(chunk, what, group_chunks_++);
-    std::vector<Vec2> vertices = frame_vertices(f, what);
+    const int64_t slot = group_chunks_++;
+    TwvFrame f = frame_of(chunk, what, slot);
+    std::vector<Vec2> vertices = frame_vertices(f, what, slot);
     if (next_frame_ == group_.first_frame) coefficients_ = domain_->zeros();
     add_decoded_residual(*domain_, f, coefficients_, header_.version >= 2);
     previous_ = std::move(vertices_);
@@ -261,7 +264,7 @@ void VideoDecoder::load_lifted_group() {
                     str(what, ": the group ends after ", t, " of its ", group_.lifted, " frames"));
             }
             TwvFrame f = frame_of(*chunk, what, t);
-            std::vector<Vec2> vertices = frame_vertices(f, what);
+            std::vector<Vec2> vertices = frame_vertices(f, what, t);
             previous_ = std::move(vertices_);
             vertices_ = vertices;  // on the canvas: what the next frame's motion starts from
             g.vertices.push_back(group_.has_canvas() ? window_vertices(vertices, f)

@@ -86,7 +86,8 @@ class VideoDecoder {
     TwvFrame frame_of(const Chunk& chunk, const std::string& what, int64_t slot) const;
     // Hands out a copy of the frame before (a repeat); renders it if it was not.
     void repeat_frame(Image* out);
-    std::vector<Vec2> frame_vertices(const TwvFrame& f, const std::string& what) const;
+    std::vector<Vec2> frame_vertices(const TwvFrame& f, const std::string& what,
+                                     int64_t slot) const;
     void load_lifted_group();
     void charge(int64_t frames, const std::string& what);
     bool skimmed_ = false;

@@ -286,7 +286,7 @@ std::vector<EncodedFrame> VideoEncoder::code_pending(bool keep_rest) {
         // A full group whose fit failed before its end: the frames after the failure start the
         // next group, which runs on to a full length.
         if (keep_rest && !pending_.empty()) {
-            in_group_ = static_cast<int64_t>(pending_.size());
+            in_group_ = pending_shown();
             break;
         }
     }

@@ -45,9 +45,7 @@ VideoEncoder::GroupCoding VideoEncoder::code_group(const CodingDomain& domain, c
                                                    std::span<const Window> windows) const {
     const int n = static_cast<int>(x.size());
     const int64_t first = pending_.front().info.number;
-    // The frames the group shows: its own and their repeats.
-    int64_t shown = n;
-    for (const Pending& p : pending_) shown += static_cast<int64_t>(p.repeats.size());
+    const int64_t shown = pending_shown();  // the group's frames and their repeats
     const TemporalTree tree = temporal_tree(header_);
     const int levels = temporal_levels(n, tree);
     temporal_forward(x, levels, tree);

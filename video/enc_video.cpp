@@ -89,6 +89,9 @@ VideoEncoder::VideoEncoder(const std::string& path, int width, int height, doubl
     if (!(o.intra_weight >= 1) || o.intra_weight > 100) {
         throw Error(str("intra weight ", o.intra_weight, " must lie in [1, 100]"));
     }
+    if (!(o.repeat_psnr >= 0) || o.repeat_psnr > 200) {
+        throw Error(str("repeat PSNR ", o.repeat_psnr, " dB must lie in [0, 200]"));
+    }
     if (options_.kbps > 0) options_.quality = 0;  // one mode: the rate
     header_.width = width;
     header_.height = height;
@@ -272,7 +275,11 @@ std::vector<uint8_t> VideoEncoder::code_frame(const Image& frame, TwvFrame& f, i
 }
 
 bool VideoEncoder::take_repeat(const Image& frame) {
-    if (options_.low_delay || options_.repeat_psnr <= 0 || pending_.empty()) return false;
+    // A repeat is shown, so it counts towards the group's length (and the frames held).
+    if (options_.low_delay || options_.repeat_psnr <= 0 || pending_.empty() ||
+        in_group_ >= group_length_) {
+        return false;
+    }
     const double threshold =
         std::max(options_.repeat_psnr, options_.quality > 0 ? options_.quality + 6 : 0.0);
     Pending& last = pending_.back();
@@ -282,7 +289,14 @@ bool VideoEncoder::take_repeat(const Image& frame) {
     info.repeat = true;
     last.repeats.push_back({frame, std::move(info)});
     ++frames_;
+    ++in_group_;
     return true;
+}
+
+int64_t VideoEncoder::pending_shown() const {
+    int64_t shown = 0;
+    for (const Pending& p : pending_) shown += 1 + static_cast<int64_t>(p.repeats.size());
+    return shown;
 }
 
 std::vector<EncodedFrame> VideoEncoder::encode(const Image& frame) {
@@ -291,7 +305,10 @@ std::vector<EncodedFrame> VideoEncoder::encode(const Image& frame) {
         throw Error(str("frame ", frames_, " is ", frame.width, "x", frame.height, ", the clip is ",
                         header_.width, "x", header_.height));
     }
-    if (take_repeat(frame)) return {};
+    if (take_repeat(frame)) {
+        if (in_group_ < group_length_) return {};
+        return code_pending(motion_ != nullptr);  // a full group (tracked: as after a frame)
+    }
     EncodedFrame info;
     info.number = frames_;
     const Progress& progress = options_.progress;

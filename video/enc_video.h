@@ -174,15 +174,16 @@ class VideoEncoder {
     const TwvGroup& group() const { return group_; }
 
   private:
-    // A frame of a lifted group, waiting for the group to be coded. A tracked group's frames
-    // keep their tracks and the camera's offset (the frame's pixel p lies at p + offset in an
-    // earlier pending frame's pixels; only differences count), and are fitted and analysed when
-    // the group is complete.
-    // The frames after it that repeat it (repeat_psnr): their images and descriptions.
+    // A frame shown as a copy of the pending frame before it (repeat_psnr): its image, for its
+    // PSNR, and its description.
     struct Repeat {
         Image frame;
         EncodedFrame info;
     };
+    // A frame of a lifted group, waiting for the group to be coded. A tracked group's frames
+    // keep their tracks and the camera's offset (the frame's pixel p lies at p + offset in an
+    // earlier pending frame's pixels; only differences count), and are fitted and analysed when
+    // the group is complete.
     struct Pending {
         Image frame;
         Planes coefficients;
@@ -193,8 +194,11 @@ class VideoEncoder {
         Vec2 offset = {};
         std::vector<Repeat> repeats = {};
     };
-    // Whether `frame` repeats the last pending frame; if so it is kept as a repeat of it.
+    // Whether `frame` repeats the last pending frame (and the group has room for it); if so it
+    // is kept as a repeat of it.
     bool take_repeat(const Image& frame);
+    // The frames the pending ones show: themselves and their repeats.
+    int64_t pending_shown() const;
     using Window = std::array<int32_t, 2>;  // a frame's place on a canvas, in 1/4 pixels
     // A tracked lifted group's domain: on a canvas when its camera pans, with each frame's window.
     struct Canvas {
@@ -269,7 +273,7 @@ class VideoEncoder {
     TwvIndex index_;
     uint64_t written_ = 0;
     int64_t frames_ = 0, in_group_ = 0, group_length_ = 0;
-    int64_t coded_frames_ = 0;         // frames whose chunks are written
+    int64_t coded_frames_ = 0;         // frames written (their chunks, or a chunk they repeat)
     int64_t largest_group_bytes_ = 0;  // a lifted group's coefficients, for finish()
     int64_t padding_ = 0;
     float base_step_ = 1.0f / 1024;

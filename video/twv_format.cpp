@@ -63,7 +63,8 @@ int64_t twv_file_bytes_needed(int64_t pixels, int64_t frames, int64_t group_byte
         if (per_byte <= 0) return kMax;
         return (need - free + per_byte - 1) / per_byte;
     };
-    const int64_t work = frames > 0 && pixels > kMax / frames ? kMax : frames * pixels;
+    const int64_t frame = twv_frame_work(pixels);
+    const int64_t work = frames > 0 && frame > kMax / frames ? kMax : frames * frame;
     return std::max({twv_bytes_needed(pixels, limits),
                      fewest(work, limits.free_work_pixels, limits.work_pixels_per_byte),
                      fewest(group_bytes, limits.free_group_bytes, limits.group_bytes_per_byte)});

@@ -36,6 +36,7 @@
 // mesh wavelet only) and version 4 files (no repeated frames) are read as before.
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
 #include <span>
 #include <string>
@@ -128,6 +129,11 @@ struct TwvLimits {
     int64_t group_bytes_per_byte = 32768;
 };
 
+// The work one decoded frame is charged, in pixels: its own, and at least 4096 for its fixed costs
+// (a chunk, a render, a frame written), so that a clip of tiny frames, or repeats that take no
+// bytes, cannot claim millions of frames from a small file.
+inline int64_t twv_frame_work(int64_t pixels) { return std::max<int64_t>(pixels, 4096); }
+
 // The frame pixels, and the bytes of one lifted group's coefficients, that decoding a file of
 // `file_bytes` bytes may cost within `limits` (saturating).
 int64_t twv_work_allowed(int64_t file_bytes, const TwvLimits& limits = {});
@@ -187,7 +193,7 @@ std::vector<uint8_t> write_twv_index(const TwvIndex& index);
 // Offsets must increase (from version 5 a repeated frame's may equal the one before) and lie
 // before `file_size`; frames must be in their groups' order.
 TwvIndex read_twv_index(std::span<const uint8_t> payload, uint64_t file_size,
-                        const std::string& what, const TwvLimits& limits = {}, int version = 5);
+                        const std::string& what, const TwvLimits& limits, int version);
 std::vector<uint8_t> twv_trailer(uint64_t index_offset);
 
 }  // namespace tesswave::video
