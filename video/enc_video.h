@@ -67,8 +67,8 @@ struct VideoEncodeOptions {
     // frame's chunk says to show it again (0: never; with a quality target, at least 6 dB above
     // it). Every third of chaplin's frames repeats the one before at 43 to 59 dB (49.5 to 59 but
     // one); its first 64 frames at 300 / 1500 / 4600 kbit/s: 32.57 / 41.10 / 49.73 dB without
-    // repeats, 32.74 / 41.74 / 50.46 at 50 dB (10 to 16 repeats), 32.90 / 42.07 / 50.60 at 45
-    // (18), the same bytes.
+    // repeats, 32.81 / 42.00 / 50.41 at 45 (18 repeats), the same bytes (50 dB, before repeats
+    // counted towards the group's length: 10 to 16 repeats, 0.3 to 0.1 dB less than 45).
     double repeat_psnr = 45;
     // Code chroma one level coarser (the finest detail bands of Cb and Cr are left out, so the
     // decoder's inverse transform upsamples them): for 4:2:0 sources.
