@@ -191,7 +191,8 @@ void add_codec_commands(CLI::App& app) {
     auto* mesh = cmd->add_option("--mesh", c->mesh,
                                  "Tessellation: a .json file, grid[:CxR] or voronoi[:N] (default: "
                                  "a grid at --density)");
-    cmd->add_flag("--fit-mesh", c->fit_mesh, "Scale a --mesh whose domain differs from the image");
+    auto* fit_mesh = cmd->add_flag("--fit-mesh", c->fit_mesh,
+                                   "Scale a --mesh whose domain differs from the image");
     auto* aligned = cmd->add_flag("--aligned", c->aligned,
                                   "Grid mesh with its finest vertices on the pixel centres "
                                   "(width-1 and height-1 multiples of 2^J): exact sampling");
@@ -199,11 +200,15 @@ void add_codec_commands(CLI::App& app) {
     mesh->excludes(aligned);
     cmd->add_option("-J,--levels", c->levels, "Mesh level J, or fixed-grid levels")
         ->check(CLI::Range(1, 12));
-    cmd->add_option("--density", c->density, "Mesh samples per pixel when J is chosen")
-        ->capture_default_str()
-        ->check(density_range());
-    add_sampling_option(cmd, c->sampling);
-    add_mesh_wavelet_option(*cmd, c->mesh_wavelet);
+    auto* density =
+        cmd->add_option("--density", c->density, "Mesh samples per pixel when J is chosen")
+            ->capture_default_str()
+            ->check(density_range());
+    // Options of the mesh path have no meaning on the fixed grid: refused with it.
+    grid->excludes(density)
+        ->excludes(fit_mesh)
+        ->excludes(add_sampling_option(cmd, c->sampling))
+        ->excludes(add_mesh_wavelet_option(*cmd, c->mesh_wavelet));
     cmd->add_flag("-y,--overwrite", c->overwrite, "Overwrite the output");
     cmd->add_flag("--json", c->json, "Print the result as JSON");
     cmd->callback([c] { run_compress(*c); });

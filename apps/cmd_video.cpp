@@ -441,10 +441,11 @@ void add_video_commands(CLI::App& app) {
     enc->add_flag("--mesh-only", e->mesh_only,
                   "Code every group on the mesh (by default a group is also coded on the "
                   "fixed-grid 9/7 and kept there when that is better)");
-    enc->add_flag("--low-delay", e->low_delay,
-                  "Code each frame as it comes (closed-loop deltas) instead of lifting each "
-                  "group along time, which takes a group of latency and gives more quality per "
-                  "bit");
+    auto* low_delay =
+        enc->add_flag("--low-delay", e->low_delay,
+                      "Code each frame as it comes (closed-loop deltas) instead of lifting each "
+                      "group along time, which takes a group of latency and gives more quality per "
+                      "bit");
     enc->add_option("--repeat-psnr", e->repeat_psnr,
                     "A frame this close (PSNR in dB, over the whole frame) to the last frame coded "
                     "is shown again instead of coded (lifted groups; 0: never; with --psnr Q at "
@@ -454,7 +455,8 @@ void add_video_commands(CLI::App& app) {
     enc->add_option("--intra-weight", e->intra_weight,
                     "With --low-delay and --kbps: an intra frame's budget in delta frames "
                     "(default 4)")
-        ->check(CLI::Range(1.0, 100.0));
+        ->check(CLI::Range(1.0, 100.0))
+        ->needs(low_delay);
     enc->add_option("--chroma", e->chroma,
                     "Chroma resolution: 420 (one mesh level coarser), 444 (full), or auto (420 "
                     "when the source is subsampled; default)")

@@ -116,6 +116,12 @@ else
     fail "mesh validate: $(cat "$dir/err.txt")"
 fi
 
+# Options of another path are refused, not ignored.
+refuse "compress --grid 97 --density 2" "$dir/g97.twi" "$tesswave" compress "$s/scene.png" \
+    --grid 97 --density 2 -o "$dir/g97.twi"
+refuse "encode --intra-weight without --low-delay" "$dir/iw.twv" "$tesswave" encode \
+    "$s/clip.mkv" --intra-weight 3 -o "$dir/iw.twv"
+
 # NaN is no number for any option (CLI11's ranges let it through: every comparison is false).
 refuse "compress --psnr nan" "$dir/nan.twi" "$tesswave" compress "$s/scene.png" --psnr nan \
     -o "$dir/nan.twi"
