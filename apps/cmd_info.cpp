@@ -126,13 +126,16 @@ void run_info(const std::string& path, bool json, int64_t max_pixels) {
     for (const auto& [key, value] : j.items()) {
         if (key == "domains") {
             for (const auto& d : value) {
-                std::printf("%-14s %s (%d groups)\n", "domain",
-                            d["domain"].get<std::string>().c_str(), d["groups"].get<int>());
+                const int groups = d["groups"].get<int>();
+                std::printf("%-16s %s (%d group%s)\n", "domain",
+                            d["domain"].get<std::string>().c_str(), groups, groups == 1 ? "" : "s");
             }
         } else if (key != "damage" || !value.get<std::string>().empty()) {
-            std::printf(
-                "%-14s %s\n", key.c_str(),
-                value.is_string() ? value.get<std::string>().c_str() : value.dump().c_str());
+            // Six significant digits for a reader (--json keeps every digit).
+            const std::string text = value.is_string()         ? value.get<std::string>()
+                                     : value.is_number_float() ? str(value.get<double>())
+                                                               : value.dump();
+            std::printf("%-16s %s\n", key.c_str(), text.c_str());
         }
     }
 }

@@ -246,11 +246,11 @@ void run_encode(const EncodeArgs& a) {
     if (groups.canvas_groups > 0) kept += str(", ", groups.canvas_groups, " on a canvas");
     if (repeated > 0) kept += str(", ", repeated, " frames repeated");
     std::printf(
-        "%s: %lld frames %dx%d in %lld groups%s, %lld bytes, %.1f kbit/s at %.3g fps "
+        "%s: %lld frame%s %dx%d in %lld group%s%s, %lld bytes, %.1f kbit/s at %.3g fps "
         "(%.4f bpp), mean PSNR %.2f dB; %.1f frames/s\n",
-        a.output.c_str(), static_cast<long long>(n), source.width(), source.height(),
-        static_cast<long long>(groups.groups), kept.c_str(), static_cast<long long>(bytes), kbps,
-        fps, bpp, psnr_sum / n, n / seconds);
+        a.output.c_str(), static_cast<long long>(n), n == 1 ? "" : "s", source.width(),
+        source.height(), static_cast<long long>(groups.groups), groups.groups == 1 ? "" : "s",
+        kept.c_str(), static_cast<long long>(bytes), kbps, fps, bpp, psnr_sum / n, n / seconds);
 }
 
 struct DecodeArgs {
