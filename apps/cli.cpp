@@ -295,13 +295,17 @@ CLI::Validator positive(const std::string& what) {
         "POSITIVE");
 }
 
+std::string lowercase_extension(const std::string& path) {
+    std::string e = std::filesystem::path(path).extension().string();
+    for (char& c : e) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    return e;
+}
+
 CLI::Validator output_extension(std::vector<std::string> extensions, const std::string& job,
                                 const std::string& kinds) {
     return CLI::Validator(
         [extensions = std::move(extensions), job, kinds](std::string& path) {
-            std::string ext = std::filesystem::path(path).extension().string();
-            std::transform(ext.begin(), ext.end(), ext.begin(),
-                           [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+            const std::string ext = lowercase_extension(path);
             for (const std::string& e : extensions) {
                 if (ext == e) return std::string();
             }

@@ -43,12 +43,7 @@ void add_domain(CLI::App* cmd, DomainArgs& d) {
     cmd->add_option("--like", d.like, "Take the domain size from this image");
 }
 
-bool is_svg(const std::string& path) {
-    std::string ext = std::filesystem::path(path).extension().string();
-    std::transform(ext.begin(), ext.end(), ext.begin(),
-                   [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-    return ext == ".svg";
-}
+bool is_svg(const std::string& path) { return lowercase_extension(path) == ".svg"; }
 
 void add_output(CLI::App* cmd, OutputArgs& o, const std::string& what, const CLI::Validator& kind) {
     cmd->add_option("-o,--output", o.path, what)->required()->check(kind);

@@ -54,10 +54,7 @@ void check_morph_output(const MorphArgs& a) {
     }
     if (a.at < 0) {
         FrameSink::check_path(a.output);
-        std::string ext = fs::path(a.output).extension().string();
-        std::transform(ext.begin(), ext.end(), ext.begin(),
-                       [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-        if (ext == ".gif" && a.fps > 100) {
+        if (lowercase_extension(a.output) == ".gif" && a.fps > 100) {
             throw CLI::ValidationError("--fps",
                                        str(a.fps, ": a GIF shows at most 100 frames a second"));
         }

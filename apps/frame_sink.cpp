@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <filesystem>
 
+#include "cli.h"
 #include "core/io/file_io.h"
 #include "core/io/image_io.h"
 #include "core/math/error.h"
@@ -16,25 +17,19 @@ namespace {
 
 namespace fs = std::filesystem;
 
-std::string extension(const std::string& path) {
-    std::string e = fs::path(path).extension().string();
-    for (char& c : e) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-    return e;
-}
-
 bool is_video_path(const std::string& path) {
-    const std::string e = extension(path);
+    const std::string e = lowercase_extension(path);
     return e == ".mp4" || e == ".mov" || e == ".mkv" || e == ".y4m";
 }
 
 }  // namespace
 
 bool FrameSink::is_folder_path(const std::string& path) {
-    return path.ends_with('/') || extension(path).empty();
+    return path.ends_with('/') || lowercase_extension(path).empty();
 }
 
 void FrameSink::check_path(const std::string& path, const std::string& option) {
-    if (is_video_path(path) || extension(path) == ".gif" || is_folder_path(path)) return;
+    if (is_video_path(path) || lowercase_extension(path) == ".gif" || is_folder_path(path)) return;
     throw CLI::ValidationError(option,
                                str(path,
                                    ": frames go to .mp4, .mov, .mkv, .y4m, .gif or a folder "
@@ -45,14 +40,14 @@ FrameSink::FrameSink(const std::string& path, int width, int height, double fps,
                      const H264Settings& h264)
     : path_(path) {
     check_path(path);
-    if (extension(path) == ".gif") {
+    if (lowercase_extension(path) == ".gif") {
         // Ordered dithering: steady from frame to frame (no crawling noise) and about a tenth
         // smaller than error diffusion.
         gif_ = std::make_unique<GifWriter>(path, width, height, fps, GifOptions{.dither = "bayer"});
         return;
     }
     if (is_video_path(path)) {
-        const std::string e = extension(path);
+        const std::string e = lowercase_extension(path);
         const VideoCodec codec = e == ".mkv"   ? VideoCodec::ffv1
                                  : e == ".y4m" ? VideoCodec::rawvideo
                                                : VideoCodec::h264;

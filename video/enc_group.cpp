@@ -275,7 +275,7 @@ std::vector<EncodedFrame> VideoEncoder::code_lifted_group(std::vector<GroupFrame
     largest_group_bytes_ = std::max(largest_group_bytes_, twv_lifted_group_bytes(g.group, header_));
     uint64_t start = written_;
     write(twv_chunk('G', write_twv_group(g.group)));
-    std::vector<EncodedFrame> done, later;
+    std::vector<EncodedFrame> done;
     for (size_t t = 0; t < n; ++t) {
         Pending& p = pending_[t];
         const TwvFrame& f = g.frames[t];
@@ -299,25 +299,25 @@ std::vector<EncodedFrame> VideoEncoder::code_lifted_group(std::vector<GroupFrame
             e.vertices = vertices[t];
         }
         e.live_tracks = std::move(p.tracks);
-        // Its repeats share its chunk and show its image.
-        for (Repeat& r : p.repeats) {
-            index_.frame_offsets.push_back(chunk_at);
-            EncodedFrame c = std::move(r.info);
-            c.kind = e.kind;
-            c.grid_group = e.grid_group;
-            c.canvas_group = e.canvas_group;
-            c.static_group = e.static_group;
-            c.psnr = psnr(r.frame, e.reconstruction).all;
-            c.quality_target = e.quality_target;
-            c.reconstruction = e.reconstruction;
-            c.mesh = e.mesh;
-            c.vertices = e.vertices;
-            later.push_back(std::move(c));
-        }
         coded_frames_ += 1 + static_cast<int64_t>(p.repeats.size());
         done.push_back(std::move(e));
-        for (EncodedFrame& c : later) done.push_back(std::move(c));
-        later.clear();
+        // Its repeats share its chunk and show its image.
+        const size_t shown = done.size() - 1;
+        for (Repeat& r : p.repeats) {
+            index_.frame_offsets.push_back(chunk_at);
+            const EncodedFrame& shown_frame = done[shown];
+            EncodedFrame c = std::move(r.info);
+            c.kind = shown_frame.kind;
+            c.grid_group = shown_frame.grid_group;
+            c.canvas_group = shown_frame.canvas_group;
+            c.static_group = shown_frame.static_group;
+            c.psnr = psnr(r.frame, shown_frame.reconstruction).all;
+            c.quality_target = shown_frame.quality_target;
+            c.reconstruction = shown_frame.reconstruction;
+            c.mesh = shown_frame.mesh;
+            c.vertices = shown_frame.vertices;
+            done.push_back(std::move(c));
+        }
         start = written_;
     }
     pending_.clear();
