@@ -325,4 +325,17 @@ CLI::Validator image_output() {
         "");
 }
 
+void refuse_unused(const CLI::App& cmd, std::initializer_list<const char*> options, bool applies,
+                   const std::string& when) {
+    if (applies) return;
+    for (const char* option : options) {
+        if (cmd.count(option) > 0) throw CLI::ValidationError(option, "applies to " + when);
+    }
+}
+
+bool is_h264_output(const std::string& path) {
+    const std::string ext = lowercase_extension(path);
+    return ext == ".mp4" || ext == ".mov";
+}
+
 }  // namespace tesswave::cli

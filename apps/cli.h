@@ -98,6 +98,16 @@ Mesh generated_mesh(const std::string& spec, double width, double height);
 // The mesh a --mesh SPEC gives for an image (`fit`: scale a file's domain to the image).
 Mesh mesh_for(const std::string& spec, const std::string& image_path, const Image& image, bool fit);
 
+// Refuses options the run would not use (given on the command line while `applies` is false),
+// rather than ignoring them: "--crf: applies to .mp4/.mov output only" (exit 2). `when` says
+// where the options apply.
+void refuse_unused(const CLI::App& cmd, std::initializer_list<const char*> options, bool applies,
+                   const std::string& when);
+
+// True for an output path that FrameSink codes with H.264 (.mp4, .mov): where --crf and
+// --preset apply.
+bool is_h264_output(const std::string& path);
+
 // --density has one range everywhere: samples per pixel in [0.01, 16].
 inline CLI::Range density_range() { return CLI::Range(0.01, 16.0); }
 

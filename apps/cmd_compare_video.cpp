@@ -362,7 +362,13 @@ void add_compare_video_command(CLI::App& app) {
                   "coded on the fixed-grid 9/7 and kept there when that is better)");
     cmd->add_flag("-y,--overwrite", a->overwrite, "Overwrite files in a non-empty folder");
     cmd->add_flag("--json", a->json, "Print the whole result as JSON");
-    cmd->callback([a] { run_compare_video(*a); });
+    cmd->callback([a, cmd] {
+        const bool raw = std::any_of(a->clips.begin(), a->clips.end(), [](const std::string& c) {
+            return lowercase_extension(c) == ".yuv";
+        });
+        refuse_unused(*cmd, {"--size", "--pix-fmt"}, raw, "raw .yuv clips only");
+        run_compare_video(*a);
+    });
 }
 
 }  // namespace tesswave::cli

@@ -460,7 +460,13 @@ void add_morph_commands(CLI::App& app) {
     cmd->add_flag("--preview", a->preview, "Render from the coarse bands only (fast look-ups)");
     cmd->add_option("--size", a->size, "Output size WxH (default: A's)");
     add_schedule_options(cmd, *a);
-    cmd->callback([a] {
+    cmd->callback([a, cmd] {
+        refuse_unused(*cmd, {"--frames", "--fps", "--loop", "--crf", "--preset"}, a->at < 0,
+                      "a clip, not to the one frame of --at");
+        refuse_unused(*cmd, {"--crf", "--preset"}, is_h264_output(a->output),
+                      ".mp4/.mov output only");
+        refuse_unused(*cmd, {"--fps"}, !FrameSink::is_folder_path(a->output),
+                      "video and GIF output, not to PNG frames");
         a->automatic = a->automatic || a->faces || a->points_a.empty();
         run_morph(*a);
     });

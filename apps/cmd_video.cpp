@@ -473,7 +473,11 @@ void add_video_commands(CLI::App& app) {
     add_sampling_option(enc, e->sampling);
     enc->add_flag("-y,--overwrite", e->overwrite, "Overwrite outputs");
     enc->add_flag("--json", e->json, "Print the result (and every frame) as JSON");
-    enc->callback([e] { run_encode(*e); });
+    enc->callback([e, enc] {
+        refuse_unused(*enc, {"--size", "--pix-fmt"}, lowercase_extension(e->input) == ".yuv",
+                      "raw .yuv input only");
+        run_encode(*e);
+    });
 
     auto d = std::make_shared<DecodeArgs>();
     auto* dec = app.add_subcommand("decode", "Decompress a .twv clip");
@@ -487,7 +491,11 @@ void add_video_commands(CLI::App& app) {
     add_h264_options(dec, d->h264);
     dec->add_flag("-y,--overwrite", d->overwrite, "Overwrite the output");
     dec->add_flag("--json", d->json, "Print the result as JSON");
-    dec->callback([d] { run_decode(*d); });
+    dec->callback([d, dec] {
+        refuse_unused(*dec, {"--crf", "--preset"}, is_h264_output(d->output),
+                      ".mp4/.mov output only");
+        run_decode(*d);
+    });
 }
 
 }  // namespace tesswave::cli

@@ -1,7 +1,6 @@
 #include "core/io/image_io.h"
 
-#include <OpenImageIO/imagebuf.h>
-#include <OpenImageIO/imageio.h>
+#include <dlfcn.h>
 #include <fcntl.h>
 #include <unistd.h>
 
@@ -9,8 +8,12 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <memory>
+#include <utility>
+#include <vector>
 
 #include "core/io/file_io.h"
+#include "core/io/image_plugin.h"
 #include "core/math/error.h"
 #include "core/math/strings.h"
 
@@ -43,20 +46,56 @@ class QuietStderr {
     int saved_ = -1;
 };
 
+// The module with the OpenImageIO calls, loaded on first use: beside the executable (a copied
+// build), else where the build put it.
+const detail::ImagePlugin* load_plugin(std::string& error) {
+    constexpr const char* kName = "libtesswave_image_oiio.so";
+    std::vector<std::string> candidates;
+    std::error_code ec;
+    const std::filesystem::path exe = std::filesystem::read_symlink("/proc/self/exe", ec);
+    if (!ec) candidates.push_back((exe.parent_path() / kName).string());
+    candidates.emplace_back(TESSWAVE_IMAGE_PLUGIN);
+    for (const std::string& path : candidates) {
+        if (!std::filesystem::exists(path, ec)) continue;
+        void* module = ::dlopen(path.c_str(), RTLD_LAZY | RTLD_LOCAL);
+        if (!module) {
+            const char* why = ::dlerror();
+            error = str(path, ": ", why ? why : "cannot be loaded");
+            return nullptr;
+        }
+        using Entry = const detail::ImagePlugin* (*)();
+        auto entry = reinterpret_cast<Entry>(::dlsym(module, "tesswave_image_plugin"));
+        if (!entry) {
+            error = str(path, ": not tesswave's image module");
+            return nullptr;
+        }
+        return entry();  // the module stays loaded for the life of the process
+    }
+    error = str(kName, " is neither beside the executable nor at ", TESSWAVE_IMAGE_PLUGIN);
+    return nullptr;
+}
+
+// The module, loaded once; throws Error naming `path` (the image the caller wanted) when it
+// cannot be loaded.
+const detail::ImagePlugin& plugin(const std::string& path) {
+    static std::string error;
+    static const detail::ImagePlugin* const loaded = load_plugin(error);
+    if (!loaded) throw Error(str(path, ": image files cannot be read or written: ", error));
+    return *loaded;
+}
+
 }  // namespace
 
 Image read_image(const std::string& path, const ImageLimits& limits, ImageNotes* notes) {
+    const detail::ImagePlugin& oiio = plugin(path);
     QuietStderr quiet;
-    // Alpha stays as stored (straight): no premultiplication on the way in or out.
-    OIIO::ImageSpec config;
-    config.attribute("oiio:UnassociatedAlpha", 1);
-    auto in = OIIO::ImageInput::open(path, &config);
+    detail::ImageFileSpec spec;
+    std::string why;
+    std::unique_ptr<void, void (*)(void*)> in(oiio.open(path, spec, why), oiio.close);
     if (!in) {
-        std::string why = OIIO::geterror();
         throw Error(str(path, ": cannot read image (", why.empty() ? "unknown format" : why, ")"));
     }
-    const OIIO::ImageSpec& spec = in->spec();
-    if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0) {
+    if (spec.width <= 0 || spec.height <= 0 || spec.channels <= 0) {
         throw Error(path + ": image has no pixels");
     }
     const int64_t declared = int64_t{spec.width} * spec.height;
@@ -71,7 +110,7 @@ Image read_image(const std::string& path, const ImageLimits& limits, ImageNotes*
         throw Error(str(path, ": declares ", spec.width, "x", spec.height, " pixels in ", bytes,
                         " bytes (more than an image file of that size may claim)"));
     }
-    const int channels = std::min(spec.nchannels, limits.max_channels);
+    const int channels = std::min(spec.channels, limits.max_channels);
     if (limits.check_size) {
         try {
             limits.check_size(spec.width, spec.height, channels);
@@ -79,15 +118,12 @@ Image read_image(const std::string& path, const ImageLimits& limits, ImageNotes*
             throw Error(str(path, ": ", e.what()));
         }
     }
-    const SampleFormat format = spec.format == OIIO::TypeDesc::UINT8            ? SampleFormat::u8
-                                : spec.format == OIIO::TypeDesc::UINT16         ? SampleFormat::u16
-                                : spec.format.basetype == OIIO::TypeDesc::UINT8 ? SampleFormat::u8
-                                                                                : SampleFormat::f32;
     std::vector<float> pixels(static_cast<size_t>(spec.width) * spec.height * channels);
-    if (!in->read_image(0, 0, 0, channels, OIIO::TypeDesc::FLOAT, pixels.data())) {
-        throw Error(str(path, ": cannot decode image (", in->geterror(), ")"));
+    std::string warning;
+    if (!oiio.read_pixels(in.get(), channels, pixels.data(), why, warning)) {
+        throw Error(str(path, ": cannot decode image (", why, ")"));
     }
-    Image image = make_image(spec.width, spec.height, channels, format);
+    Image image = make_image(spec.width, spec.height, channels, spec.format);
     const size_t n = static_cast<size_t>(spec.width) * spec.height;
     int64_t non_finite = 0;
     for (size_t i = 0; i < n; ++i) {
@@ -103,51 +139,30 @@ Image read_image(const std::string& path, const ImageLimits& limits, ImageNotes*
     }
     if (notes) {
         notes->non_finite = non_finite;
-        notes->decoder = in->has_error() ? in->geterror() : std::string();
+        notes->decoder = std::move(warning);
     }
     return image;
 }
 
-bool image_writable(const std::string& path) {
-    if (OIIO::ImageOutput::create(path)) return true;
-    (void)OIIO::geterror();  // the failure is the answer, not an error to report later
-    return false;
-}
+bool image_writable(const std::string& path) { return plugin(path).writable(path); }
 
 void write_image(const Image& image, const std::string& path) {
     const int channels = image.channels();
     if (image.width <= 0 || image.height <= 0 || channels <= 0) {
         throw Error(path + ": nothing to write (empty image)");
     }
-    const std::string tmp = temporary_name(path);
-    auto out = OIIO::ImageOutput::create(path);
-    if (!out)
-        throw Error(str(path, ": no image writer for this file name (", OIIO::geterror(), ")"));
-    OIIO::TypeDesc type = image.format == SampleFormat::u16   ? OIIO::TypeDesc::UINT16
-                          : image.format == SampleFormat::f32 ? OIIO::TypeDesc::FLOAT
-                                                              : OIIO::TypeDesc::UINT8;
-    if (type == OIIO::TypeDesc::FLOAT && !out->supports("floatformat")) {
-        type = OIIO::TypeDesc::UINT16;
-    }
-    OIIO::ImageSpec spec(image.width, image.height, channels, type);
-    if (channels == 2 || channels == 4) {
-        spec.alpha_channel = channels - 1;
-        spec.attribute("oiio:UnassociatedAlpha", 1);
-    }
+    const detail::ImagePlugin& oiio = plugin(path);
     const size_t n = static_cast<size_t>(image.width) * image.height;
     std::vector<float> pixels(n * channels);
-    const bool clamp = type != OIIO::TypeDesc::FLOAT;
     for (size_t i = 0; i < n; ++i) {
-        for (int c = 0; c < channels; ++c) {
-            const float v = image.planes[c][i];
-            pixels[i * channels + c] = clamp ? std::clamp(v, 0.0f, 1.0f) : v;
-        }
+        for (int c = 0; c < channels; ++c) pixels[i * channels + c] = image.planes[c][i];
     }
-    if (!out->open(tmp, spec) || !out->write_image(OIIO::TypeDesc::FLOAT, pixels.data()) ||
-        !out->close()) {
-        const std::string why = out->geterror();
+    const detail::ImageFileSpec spec{image.width, image.height, channels, image.format};
+    const std::string tmp = temporary_name(path);
+    std::string why;
+    if (!oiio.write(path, tmp, spec, pixels.data(), why)) {
         discard_temporary(tmp);
-        throw Error(str(path, ": cannot write image (", why, ")"));
+        throw Error(str(path, ": ", why));
     }
     commit_temporary(tmp, path);
 }

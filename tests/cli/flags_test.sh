@@ -148,4 +148,21 @@ check "-q compress --psnr 90" "$tesswave" -q compress "$s/scene.png" --psnr 90 -
 if [[ ! -s $dir/err.txt ]]; then pass "-q hides the warning"; else fail "-q warned"; fi
 check "-v compress" "$tesswave" -v compress "$s/scene.png" -o "$dir/v.twi"
 if grep -q "coding" "$dir/err.txt"; then pass "-v names the stages"; else fail "-v silent"; fi
+# Options that would not be used are refused, not ignored.
+refuse "morph --at with --frames" "$dir/at.png" "$tesswave" morph "$s/pair_a.png" "$s/pair_b.png" \
+    --at 0.5 --frames 10 -o "$dir/at.png"
+refuse "morph --crf to a GIF" "$dir/crf.gif" "$tesswave" morph "$s/pair_a.png" "$s/pair_b.png" \
+    --crf 20 -o "$dir/crf.gif"
+refuse "decode --preset to PNG frames" "$dir/pf" "$tesswave" decode "$dir/c.twv" --preset slow \
+    -o "$dir/pf"
+refuse "encode --size for a video file" "$dir/sz.twv" "$tesswave" encode "$s/clip.mkv" \
+    --size 64x48 -o "$dir/sz.twv"
+refuse "compare-video --pix-fmt for a video file" "$dir/cv" "$tesswave" compare-video \
+    "$s/clip.mkv" --pix-fmt gray -o "$dir/cv"
+# A command that reads and writes no image file does not load OpenImageIO (0.3 s and 100 MB of
+# libraries at start-up); one that does loads it.
+LD_DEBUG=files "$tesswave" info "$dir/c.twv" >/dev/null 2>"$dir/ld.txt"
+if grep -q libOpenImageIO "$dir/ld.txt"; then fail "info loaded OpenImageIO"; else pass "info without OpenImageIO"; fi
+LD_DEBUG=files "$tesswave" compress "$s/scene.png" -o "$dir/ld.twi" -y >/dev/null 2>"$dir/ld.txt"
+if grep -q libOpenImageIO "$dir/ld.txt"; then pass "compress loads OpenImageIO"; else fail "compress: no OpenImageIO"; fi
 finish
