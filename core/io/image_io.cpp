@@ -47,8 +47,11 @@ class QuietStderr {
 };
 
 // The module with the OpenImageIO calls, loaded on first use: beside the executable (a copied
-// build), else where the build put it.
-const detail::ImagePlugin* load_plugin(std::string& error) {
+// build), else where the build put it. Sanitizer builds link it in (CMakeLists.txt says why).
+const detail::ImagePlugin* load_plugin([[maybe_unused]] std::string& error) {
+#ifndef TESSWAVE_IMAGE_PLUGIN
+    return tesswave_image_plugin();  // linked in (a sanitizer build)
+#else
     constexpr const char* kName = "libtesswave_image_oiio.so";
     std::vector<std::string> candidates;
     std::error_code ec;
@@ -73,6 +76,7 @@ const detail::ImagePlugin* load_plugin(std::string& error) {
     }
     error = str(kName, " is neither beside the executable nor at ", TESSWAVE_IMAGE_PLUGIN);
     return nullptr;
+#endif
 }
 
 // The module, loaded once; throws Error naming `path` (the image the caller wanted) when it
