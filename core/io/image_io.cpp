@@ -66,7 +66,7 @@ const detail::ImagePlugin* load_plugin([[maybe_unused]] std::string& error) {
         void* module = ::dlopen(path.c_str(), RTLD_LAZY | RTLD_LOCAL | RTLD_DEEPBIND);
         if (!module) {
             const char* why = ::dlerror();
-            error = str(path, ": ", why ? why : "cannot be loaded");
+            error = why ? why : path + ": cannot be loaded";  // dlerror names the file
             return nullptr;
         }
         using Entry = const detail::ImagePlugin* (*)();
