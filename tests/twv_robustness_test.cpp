@@ -11,6 +11,7 @@
 #include "core/codec/byte_io.h"
 #include "core/math/error.h"
 #include "core/math/metrics.h"
+#include "core/math/strings.h"
 #include "samples/sample_clip.h"
 #include "temp_dir.h"
 #include "video/dec_video.h"
@@ -446,6 +447,64 @@ TEST(TwvRobustness, ALiftedGroupsMemoryIsBoundedByTheFileSize) {
             << decoder.damage();
         fs::remove(path);
     }
+}
+
+// A group's mesh is weighed against the file's bytes as a still file's is: a 101-byte file whose
+// group claimed 11.5 M samples (724x724 frames, within 20 samples a pixel) cost its decoder
+// 1.9 GiB. Here a 2x2 grid at J = 8 (263169 samples) is refused in a file of about 100 bytes,
+// naming the group and the file's size, by `info` (skimming) as by decoding; limits that trust
+// the file (--max-pixels) let it through.
+TEST(TwvRobustness, AMeshGroupsSamplesAreBoundedByTheFileSize) {
+    const TwvHeader header{.width = 724, .height = 724};
+    TwvGroup g = grid_group(header, 2);
+    g.transform = TwiTransform::mesh;
+    g.motion = TwvMotion::none;
+    g.levels = 8;
+    g.grid_cols = 2;
+    g.grid_rows = 2;
+    g.band_norms.assign(twv_band_count(g, header), 1.0f);
+    const std::string path =
+        crafted({group_chunk(g), twv_chunk('F', write_twv_frame(empty_intra(g), g))}, header);
+    const int64_t size = static_cast<int64_t>(fs::file_size(path));
+    EXPECT_LT(size, 200);
+    EXPECT_EQ(twv_group_samples(g), 513 * 513);
+    EXPECT_LT(twv_samples_allowed(size), twv_group_samples(g));
+    for (const bool skim : {false, true}) {
+        VideoDecoder decoder(path);
+        Image frame;
+        EXPECT_FALSE(skim ? decoder.skim() : decoder.read(frame));
+        EXPECT_NE(decoder.damage().find("its mesh has 263169 samples, more than the"),
+                  std::string::npos)
+            << decoder.damage();
+        EXPECT_NE(decoder.damage().find(str(size, "-byte file")), std::string::npos);
+    }
+    VideoDecoder trusting(path, {.free_samples = int64_t{1} << 20});
+    EXPECT_TRUE(trusting.skim()) << trusting.damage();
+    fs::remove(path);
+}
+
+// The encoder pads a file whose mesh has more samples than its bytes would let a decoder accept:
+// two flat 256x256 frames at density 4 (263169 samples) code into a few hundred bytes.
+TEST(TwvRobustness, TheEncoderPadsAFileTooSmallForItsMesh) {
+    const std::string path = temp_path("dense.twv");
+    Image flat = make_image(256, 256, 3, SampleFormat::f32);
+    for (auto& plane : flat.planes) std::fill(plane.begin(), plane.end(), 0.5f);
+    VideoEncoder encoder(
+        path, 256, 256, 25,
+        {.motion = TwvMotion::none, .density = 4, .kbps = 1, .grid_groups = false});
+    for (int t = 0; t < 2; ++t) encoder.encode(flat);
+    const int64_t bytes = encoder.finish();
+    EXPECT_GT(encoder.padding(), 0);
+    const int64_t samples = 513 * 513;
+    EXPECT_GE(twv_samples_allowed(bytes), samples);
+    EXPECT_LT(twv_samples_allowed(bytes - 1), samples);
+    VideoDecoder decoder(path);
+    Image frame;
+    int frames = 0;
+    while (decoder.read(frame)) ++frames;
+    EXPECT_EQ(frames, 2) << decoder.damage();
+    EXPECT_TRUE(decoder.damage().empty()) << decoder.damage();
+    fs::remove(path);
 }
 
 // The encoder never writes a file its decoder would stop on: 40 flat 700x700 frames (20 M frame

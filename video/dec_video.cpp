@@ -124,6 +124,13 @@ std::optional<VideoDecoder::Chunk> VideoDecoder::read_chunk(uint64_t offset) {
 
 void VideoDecoder::start_group(const Chunk& chunk) {
     TwvGroup g = read_twv_group(chunk.payload, header_, str(path_, ": group"), limits_);
+    const int64_t samples = twv_group_samples(g),
+                  allowed = twv_samples_allowed(static_cast<int64_t>(file_size_), limits_);
+    if (samples > allowed) {
+        throw Error(str(path_, ": group at frame ", g.first_frame, ": its mesh has ", samples,
+                        " samples, more than the ", allowed, " a ", file_size_,
+                        "-byte file may claim (--max-pixels raises the limit)"));
+    }
     if (g.first_frame != next_frame_) {
         throw Error(
             str(path_, ": group starts at frame ", g.first_frame, ", expected ", next_frame_));

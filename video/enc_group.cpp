@@ -273,6 +273,7 @@ std::vector<EncodedFrame> VideoEncoder::code_lifted_group(std::vector<GroupFrame
     index_.group_offsets.push_back(written_);
     index_.group_first.push_back(g.group.first_frame);
     largest_group_bytes_ = std::max(largest_group_bytes_, twv_lifted_group_bytes(g.group, header_));
+    largest_group_samples_ = std::max(largest_group_samples_, twv_group_samples(g.group));
     uint64_t start = written_;
     write(twv_chunk('G', write_twv_group(g.group)));
     std::vector<EncodedFrame> done;

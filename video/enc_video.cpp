@@ -247,6 +247,7 @@ void VideoEncoder::start_group(int64_t number) {
     group_.first_frame = number;
     index_.group_offsets.push_back(written_);
     index_.group_first.push_back(number);
+    largest_group_samples_ = std::max(largest_group_samples_, twv_group_samples(group_));
     write(twv_chunk('G', write_twv_group(group_)));
 }
 
@@ -433,8 +434,9 @@ int64_t VideoEncoder::finish() {
     // than its size lets a decoder grant (TwvLimits), so it gets a padding chunk of zeros, the
     // fewest bytes that make the file decodable within the default limits.
     const std::vector<uint8_t> index = twv_chunk('I', write_twv_index(index_));
-    const int64_t needed = twv_file_bytes_needed(int64_t{header_.width} * header_.height,
-                                                 coded_frames_, largest_group_bytes_);
+    const int64_t needed =
+        twv_file_bytes_needed(int64_t{header_.width} * header_.height, coded_frames_,
+                              largest_group_bytes_, largest_group_samples_);
     if (needed == std::numeric_limits<int64_t>::max()) {
         throw Error(
             str(path_, ": a group of ", largest_group_bytes_,

@@ -273,8 +273,9 @@ class VideoEncoder {
     TwvIndex index_;
     uint64_t written_ = 0;
     int64_t frames_ = 0, in_group_ = 0, group_length_ = 0;
-    int64_t coded_frames_ = 0;         // frames written (their chunks, or a chunk they repeat)
-    int64_t largest_group_bytes_ = 0;  // a lifted group's coefficients, for finish()
+    int64_t coded_frames_ = 0;           // frames written (their chunks, or a chunk they repeat)
+    int64_t largest_group_bytes_ = 0;    // a lifted group's coefficients, for finish()
+    int64_t largest_group_samples_ = 0;  // a mesh group's samples, for finish()
     int64_t padding_ = 0;
     float base_step_ = 1.0f / 1024;
     // Lifted groups with a rate: the step the streams are coded at, refined by quarters until the

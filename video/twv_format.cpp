@@ -53,7 +53,11 @@ int64_t twv_group_bytes_allowed(int64_t file_bytes, const TwvLimits& limits) {
                     weighed(limits.free_group_bytes, limits.group_bytes_per_byte, file_bytes));
 }
 
-int64_t twv_file_bytes_needed(int64_t pixels, int64_t frames, int64_t group_bytes,
+int64_t twv_samples_allowed(int64_t file_bytes, const TwvLimits& limits) {
+    return weighed(limits.free_samples, limits.samples_per_byte, file_bytes);
+}
+
+int64_t twv_file_bytes_needed(int64_t pixels, int64_t frames, int64_t group_bytes, int64_t samples,
                               const TwvLimits& limits) {
     constexpr int64_t kMax = std::numeric_limits<int64_t>::max();
     if (group_bytes > limits.max_group_bytes) return kMax;
@@ -67,7 +71,8 @@ int64_t twv_file_bytes_needed(int64_t pixels, int64_t frames, int64_t group_byte
     const int64_t work = frames > 0 && frame > kMax / frames ? kMax : frames * frame;
     return std::max({twv_bytes_needed(pixels, limits),
                      fewest(work, limits.free_work_pixels, limits.work_pixels_per_byte),
-                     fewest(group_bytes, limits.free_group_bytes, limits.group_bytes_per_byte)});
+                     fewest(group_bytes, limits.free_group_bytes, limits.group_bytes_per_byte),
+                     fewest(samples, limits.free_samples, limits.samples_per_byte)});
 }
 
 std::vector<uint8_t> write_twv_header(const TwvHeader& h) {
@@ -172,6 +177,11 @@ int64_t twv_frame_coefficient_bytes(const TwvGroup& g, const TwvHeader& h) {
                                ? grid_samples(g.grid_cols, g.grid_rows, g.levels)
                                : static_cast<double>(h.width) * h.height;
     return static_cast<int64_t>(samples) * h.channels * 4;
+}
+
+int64_t twv_group_samples(const TwvGroup& g) {
+    if (g.transform != TwiTransform::mesh) return 0;
+    return static_cast<int64_t>(grid_samples(g.grid_cols, g.grid_rows, g.levels));
 }
 
 int64_t twv_lifted_group_bytes(const TwvGroup& g, const TwvHeader& h) {

@@ -127,6 +127,12 @@ struct TwvLimits {
     int64_t work_pixels_per_byte = 4096;
     int64_t free_group_bytes = int64_t{64} << 20;
     int64_t group_bytes_per_byte = 32768;
+    // A group's mesh, weighed as TwiLimits weighs a still file's: any file may have groups of
+    // free_samples samples of T_J, larger ones need a byte of file for each samples_per_byte
+    // samples. A mesh group's domain costs its decoder about 160 bytes a sample, so a 1 KB file
+    // may cost about 40 MiB there (a 101-byte file claiming 11.5 M samples took 1.9 GiB before).
+    int64_t free_samples = int64_t{1} << 17;
+    int64_t samples_per_byte = 128;
 };
 
 // The work one decoded frame is charged, in pixels: its own, and at least 4096 for its fixed costs
@@ -138,6 +144,11 @@ inline int64_t twv_frame_work(int64_t pixels) { return std::max<int64_t>(pixels,
 // `file_bytes` bytes may cost within `limits` (saturating).
 int64_t twv_work_allowed(int64_t file_bytes, const TwvLimits& limits = {});
 int64_t twv_group_bytes_allowed(int64_t file_bytes, const TwvLimits& limits = {});
+// The mesh samples of T_J a group of a file of `file_bytes` bytes may have (saturating).
+int64_t twv_samples_allowed(int64_t file_bytes, const TwvLimits& limits = {});
+
+// The samples of a mesh group's T_J (0 for a fixed-grid group, whose cost the frame size bounds).
+int64_t twv_group_samples(const TwvGroup& group);
 
 // Why a group's mesh (or its lifted frames) is too large for the limits (empty: it is not): the
 // one check of the decoder and the encoder.
@@ -148,9 +159,9 @@ std::string twv_group_size_problem(const TwvGroup& group, const TwvHeader& heade
 int64_t twv_bytes_needed(int64_t pixels, const TwvLimits& limits = {});
 
 // The bytes a .twv file needs so that `limits` let it have frames of `pixels` pixels, decode
-// `frames` of them, and hold lifted groups of `group_bytes` bytes of coefficients; the largest
-// int64_t when no size will do (a group above max_group_bytes).
-int64_t twv_file_bytes_needed(int64_t pixels, int64_t frames, int64_t group_bytes,
+// `frames` of them, hold lifted groups of `group_bytes` bytes of coefficients and have mesh groups
+// of `samples` samples; the largest int64_t when no size will do (a group above max_group_bytes).
+int64_t twv_file_bytes_needed(int64_t pixels, int64_t frames, int64_t group_bytes, int64_t samples,
                               const TwvLimits& limits = {});
 
 // The bytes one frame's coefficients take in memory (all channels).
