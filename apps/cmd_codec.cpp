@@ -22,7 +22,7 @@ TwiTransform parse_grid(const std::string& grid) {
 
 struct CompressArgs {
     std::string input, output, mesh, grid, sampling = "fit", mesh_wavelet = "97";
-    double bpp = 0, psnr = 0, density = 1.0;
+    double bpp = 0, psnr = 0, density = kStillDensity;
     bool lossless = false, aligned = false, fit_mesh = false, overwrite = false, json = false;
     int levels = 0;
 };

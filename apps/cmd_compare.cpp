@@ -30,7 +30,7 @@ struct CompareArgs {
     std::vector<std::string> images;
     std::vector<double> bpp = {0.25, 0.5, 1, 2};
     std::string output;
-    double density = 1.0;
+    double density = kStillDensity;
     std::string sampling = "fit";
     bool overwrite = false, json = false;
 };

@@ -18,6 +18,9 @@
 
 namespace tesswave {
 
+// The default samples per pixel of the still codec's grid mesh (StillOptions::density).
+inline constexpr double kStillDensity = 1.25;
+
 struct StillOptions {
     TwiTransform transform = TwiTransform::mesh;
     bool lossless = false;  // integer lifting and YCoCg-R; every bit-plane coded
@@ -43,8 +46,13 @@ struct StillOptions {
     // (project.h) of a few smoothness weights and keeps the file with the lower error at the
     // target size, so that fit is never worse than point.
     Sampling sampling = Sampling::fit;
-    int levels = 0;          // J (mesh) or decomposition levels (grid); 0: chosen
-    double density = 1.0;    // samples per pixel when J is chosen
+    int levels = 0;  // J (mesh) or decomposition levels (grid); 0: chosen
+    // Samples per pixel when J is chosen. 1.25 rather than 1: at exactly one sample a pixel the
+    // default grid's samples sit on the pixel corners, every pixel is the mean of four samples,
+    // and a fit must sharpen hard (costly finest bands). A grid about 0.9 pixel apart blurs less:
+    // Kodak 1-8 with the projection, mean PSNR at 0.25 / 0.5 / 1 / 2 bpp 28.34 / 31.08 / 34.53 /
+    // 38.59 dB at 1, 28.36 / 31.15 / 34.80 / 39.50 at 1.25 (1.5: 28.38 / 31.11 / 34.69 / 39.28).
+    double density = kStillDensity;
     int norm_probes = 1;     // impulses per band for the band norms
     bool measure = true;     // decode the result once and report its PSNR
     Progress progress = {};  // optional
