@@ -43,8 +43,15 @@ void refuse_inputs_inside(const std::string& dir, const std::vector<std::string>
         if (in.empty() || !fs::exists(in, ec)) continue;
         const fs::path file = fs::canonical(in, ec);
         if (ec) continue;
-        const auto [end, _] = std::mismatch(folder.begin(), folder.end(), file.begin(), file.end());
-        if (end == folder.end()) throw Error(dir + ": output folder holds the input " + in);
+        // Where the file is, and where its name is (a symlink's own place): replacing either
+        // changes what the user named as an input.
+        const fs::path named =
+            fs::canonical(fs::absolute(in, ec).parent_path(), ec) / fs::path(in).filename();
+        for (const fs::path& place : {file, named}) {
+            const auto [end, _] =
+                std::mismatch(folder.begin(), folder.end(), place.begin(), place.end());
+            if (end == folder.end()) throw Error(dir + ": output folder holds the input " + in);
+        }
         struct stat st {};
         if (::stat(file.c_str(), &st) == 0 && S_ISREG(st.st_mode) && st.st_nlink > 1) {
             linked.push_back({st.st_dev, st.st_ino, &in});

@@ -68,6 +68,19 @@ if ((status != 0)) && [[ $(md5sum <"$dir/d/resampled.png") == "$sum" ]]; then
 else
     fail "analyze through a symlink: exit $status"
 fi
+# An input named through a symlink inside the output folder (to a file outside it): the output
+# would replace the name the user gave, so the run is refused and the link stays.
+mkdir -p "$dir/sl"
+ln -s "$dir/s/scene.png" "$dir/sl/resampled.png"
+status=0
+"$tesswave" analyze "$dir/sl/resampled.png" -o "$dir/sl" -y --keep 10 >/dev/null 2>"$dir/err.txt" ||
+    status=$?
+if ((status != 0)) && [[ -L "$dir/sl/resampled.png" ]] &&
+    [[ $(find "$dir/sl" -mindepth 1 | wc -l) == 1 ]]; then
+    pass "analyze of a symlink inside its output folder refused: $(cat "$dir/err.txt")"
+else
+    fail "analyze of a symlink inside its output folder: exit $status, $(ls "$dir/sl" | tr '\n' ' ')"
+fi
 # A hard link to the input inside the output folder: outputs replace names, never the file.
 mkdir -p "$dir/h"
 ln "$dir/d/resampled.png" "$dir/h/resampled.png"
