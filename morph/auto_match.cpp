@@ -26,6 +26,8 @@ constexpr int kRefineWindow = 15;        // Lucas-Kanade window refining a featu
 
 // Working coordinates are OpenCV's (pixel centre at integers); DESIGN.md 2.1 adds 1/2.
 constexpr double kCentre = 0.5;
+// The most pixels of A that matching works on (2^21: 1920x1080 and smaller at full size).
+constexpr int64_t kMatchPixels = int64_t{1} << 21;
 
 void check_inputs(const Image& a, const Image& b, const AutoMatchOptions& o) {
     for (const auto& [image, name] : {std::pair{&a, "A"}, std::pair{&b, "B"}}) {
@@ -306,11 +308,12 @@ class Spacing {
 struct Collector {
     Spacing in_a, in_b;
     double sx, sy;  // B's working copy to B
+    double ax, ay;  // A's working copy to A
     Matches out = {};
     std::vector<uint8_t> is_flow = {};
 
     void add(cv::Point2f pa, cv::Point2f qb, bool flow) {
-        const Vec2 a{pa.x + kCentre, pa.y + kCentre};
+        const Vec2 a{ax * (pa.x + kCentre), ay * (pa.y + kCentre)};
         const Vec2 b{sx * (qb.x + kCentre), sy * (qb.y + kCentre)};
         if (!in_a.free(a) || !in_b.free(b)) return;
         in_a.add(a);
@@ -394,7 +397,16 @@ Matches match(const Image& a, const Image& b, const AutoMatchOptions& options) {
         if (options.progress) options.progress(done, stage);
     };
     report(0.0, "grey");
-    const cv::Mat a8 = grey8(a);
+    cv::Mat a8 = grey8(a);
+    if (a8.total() > static_cast<size_t>(kMatchPixels)) {
+        // Large images are matched on a copy of at most kMatchPixels pixels: flows at full size
+        // cost about 220 bytes a pixel (a flat 8192x8192 PNG of 212 KB took 14.6 GiB here).
+        const double s = std::sqrt(static_cast<double>(kMatchPixels) / a8.total());
+        const cv::Size size(std::max(1, static_cast<int>(a8.cols * s)),
+                            std::max(1, static_cast<int>(a8.rows * s)));
+        const cv::Mat own = a8;
+        cv::resize(own, a8, size, 0, 0, cv::INTER_AREA);
+    }
     cv::Mat b8 = grey8(b);
     if (b8.size() != a8.size()) {
         const cv::Mat own = b8;
@@ -411,7 +423,8 @@ Matches match(const Image& a, const Image& b, const AutoMatchOptions& options) {
     report(0.15, "flow");
     const Field field = dense_field(a8, b8, prior, options);
 
-    if (options.flow && prior == kIdentity && a.width == b.width && a.height == b.height) {
+    if (options.flow && prior == kIdentity && a.width == b.width && a.height == b.height &&
+        a8.cols == a.width && a8.rows == a.height) {
         auto copy = [](const cv::Mat& f, std::vector<float>& out) {
             const cv::Mat flat = f.isContinuous() ? f : f.clone();
             out.assign(flat.ptr<float>(), flat.ptr<float>() + flat.total() * 2);
@@ -421,9 +434,12 @@ Matches match(const Image& a, const Image& b, const AutoMatchOptions& options) {
         copy(field.backward, options.flow->backward);
     }
     report(0.9, "matches");
-    Collector collect{Spacing(a.width, a.height), Spacing(b.width, b.height),
-                      static_cast<double>(b.width) / a.width,
-                      static_cast<double>(b.height) / a.height};
+    Collector collect{Spacing(a.width, a.height),
+                      Spacing(b.width, b.height),
+                      static_cast<double>(b.width) / a8.cols,
+                      static_cast<double>(b.height) / a8.rows,
+                      static_cast<double>(a.width) / a8.cols,
+                      static_cast<double>(a.height) / a8.rows};
     collect_flow(field, options.grid_step, collect);
     collect_features(field, candidates, collect);
     Matches matches = collect.finish(options.max_points);

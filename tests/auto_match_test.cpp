@@ -197,6 +197,24 @@ TEST(AutoMatch, images_of_different_sizes_match_in_their_own_pixels) {
     }
 }
 
+// Images above 2^21 pixels are matched on a smaller working copy (flows at full size took 14.6
+// GiB for 8192x8192); the matches come back in the images' own pixels, over the whole of A.
+TEST(AutoMatch, large_images_match_on_a_working_copy_in_their_own_pixels) {
+    const Image a = textured(1760, 1320, 3);  // 2.32 M pixels
+    const Map forward = [](Vec2 p) { return p + bend(p); };
+    const Image b = warp(a, 1760, 1320, unbend);
+    const Matches m = auto_match(a, b);
+    const Errors e = errors(m, forward);
+    record(m, e);
+    EXPECT_GE(m.a.size(), 2000u);
+    EXPECT_LT(e.median, 0.6);
+    EXPECT_LT(e.p95, 2.0);
+    double right = 0, bottom = 0;
+    for (const Vec2& p : m.a) right = std::max(right, p.x), bottom = std::max(bottom, p.y);
+    EXPECT_GT(right, 1600);
+    EXPECT_GT(bottom, 1200);
+}
+
 // Unrelated images keep a handful of the ~1200 grid samples (4 to 16 over these seeds, both
 // ways) or none, and then throw. Another seed of scene_image is not unrelated: its hills, house
 // and sun are where A's are, and a few hundred matches there are right.

@@ -31,6 +31,16 @@ refuse "decode --range 3:1" "$dir/r2" "$tesswave" decode "$dir/c.twv" --range 3:
 check "morph --at 0.5" \
     "$tesswave" morph "$s/pair_a.png" "$s/pair_b.png" --points-a "$s/pair_a.txt" \
     --points-b "$s/pair_b.txt" --at 0.5 -o "$dir/mid.png"
+# A morph whose mesh would pass the sample limit is refused before the matching (it failed after
+# it, naming no file), naming what sets the size.
+status=0
+"$tesswave" morph "$s/pair_a.png" "$s/pair_b.png" --size 8000x8000 -o "$dir/big.mp4" \
+    >/dev/null 2>"$dir/err.txt" || status=$?
+if ((status == 1)) && [[ ! -e $dir/big.mp4 ]] && grep -q "^tesswave: --size 8000x8000: .*mesh samples" "$dir/err.txt"; then
+    pass "a morph past the sample limit refused: $(cat "$dir/err.txt")"
+else
+    fail "a morph past the sample limit: exit $status, $(cat "$dir/err.txt")"
+fi
 check "inbetween --at 0.5" "$tesswave" inbetween "$s/pair_a.png" "$s/pair_b.png" --at 0.5 \
     -o "$dir/ib.png"
 refuse "morph --frames 0" "$dir/bad.gif" \
