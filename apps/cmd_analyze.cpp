@@ -110,9 +110,11 @@ AnalysisResult run_analyze(const AnalyzeRequest& request) {
     write_image(r.resampled, (dir / "resampled.png").string());
     write_image(r.coefficients, (dir / "coefficients.png").string());
     const double scale = std::max(1.0, 600.0 / std::max(image.width, image.height));
-    write_image(
-        draw_mesh(mesh, {.levels = std::min(3, r.levels), .scale = std::round(scale)}, &image),
-        (dir / "mesh.png").string());
+    // Up to three levels, fewer where they would be a flat colour (a million-cell mesh drew none
+    // after 70 s of analysis: the picture was refused and the run failed).
+    const int drawn = drawable_levels(mesh, std::min(3, r.levels), std::round(scale));
+    write_image(draw_mesh(mesh, {.levels = drawn, .scale = std::round(scale)}, &image),
+                (dir / "mesh.png").string());
     const std::vector<double> keep = options.keep;
     for (size_t k = 0; k < keep.size(); ++k) {
         const std::string tag = keep_name(keep[k]);

@@ -314,16 +314,15 @@ void add_draw(CLI::App& mesh_cmd) {
             }
         };
         const bool svg = is_svg(args->out.path);
-        // One SVG element a T_levels edge: say so before writing hundreds of megabytes (a level
-        // too fine for the picture is refused by the drawing itself).
-        const auto warn_svg_size = [&] {
-            if (!svg || args->draw.levels == 0) return;
+        // One SVG element an edge: an SVG past 10 MB is said to be one, with what makes it (a
+        // 4-face mesh at -J 8 wrote 38 MB without a word; a level too fine for the picture is
+        // refused by the drawing itself).
+        const auto warn_svg_size = [&](size_t bytes) {
+            if (bytes <= 10'000'000) return;
             const int64_t edges = level_counts(mesh, args->draw.levels)[args->draw.levels].edges;
-            if (edges > 1'000'000) {
-                warn(str("warning: ", args->out.path, ": ", edges, " lines at level ",
-                         args->draw.levels, " make an SVG of about ", edges * 100 / 1'000'000,
-                         " MB (fewer --levels, or a PNG, is lighter)"));
-            }
+            warn(str("warning: ", args->out.path, ": ", edges, " lines at level ",
+                     args->draw.levels, " make an SVG of ", bytes / 1'000'000,
+                     " MB (fewer --levels, or a PNG, is lighter)"));
         };
         if (svg) {
             std::string href;
@@ -335,7 +334,7 @@ void add_draw(CLI::App& mesh_cmd) {
             }
             const std::string picture =
                 drawn([&] { return draw_mesh_svg(mesh, args->draw, href); });
-            warn_svg_size();
+            warn_svg_size(picture.size());
             write_file_atomic(args->out.path, picture);
         } else {
             std::unique_ptr<Image> background;

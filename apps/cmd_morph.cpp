@@ -188,7 +188,7 @@ void check_morph_size(const std::string& name, int width, int height, double den
     if (samples > static_cast<double>(limit)) {
         throw Error(str(name, ": a morph of ", width, "x", height, " pixels at ", density,
                         " samples a pixel needs about ", static_cast<int64_t>(samples),
-                        " mesh samples (the limit is ", limit, "); lower --density or use --size"));
+                        " mesh samples (the limit is ", limit, "); lower --density or --size"));
     }
 }
 

@@ -45,11 +45,20 @@ double pick_scale(const Mesh& mesh, const DrawOptions& options) {
 // A level whose edges outnumber twice the picture's pixels draws a flat colour at a cost of
 // gigabytes (a 2000-cell Voronoi mesh at level 6: 24 M edges, 3.7 GB and 11 s for 1024x768):
 // refused before the hierarchy is built.
+double picture_pixels(const Mesh& mesh, double scale) {
+    return std::max(1.0, mesh.width * scale) * std::max(1.0, mesh.height * scale);
+}
+
+bool drawable(const Mesh& mesh, int levels, double scale) {
+    if (levels == 0) return true;
+    return static_cast<double>(level_counts(mesh, levels)[levels].edges) <=
+           2 * picture_pixels(mesh, scale);
+}
+
 void check_drawable(const Mesh& mesh, int levels, double scale) {
-    if (levels == 0) return;
-    const double pixels = std::max(1.0, mesh.width * scale) * std::max(1.0, mesh.height * scale);
-    const int64_t edges = level_counts(mesh, levels)[levels].edges;
-    if (static_cast<double>(edges) > 2 * pixels) {
+    if (!drawable(mesh, levels, scale)) {
+        const double pixels = picture_pixels(mesh, scale);
+        const int64_t edges = level_counts(mesh, levels)[levels].edges;
         throw Error(str("draw: level ", levels, " has ", edges, " edges, more than a picture of ",
                         static_cast<int64_t>(pixels), " pixels can show (draw fewer levels)"));
     }
@@ -115,6 +124,13 @@ Image draw_mesh_raster(const Mesh& mesh, const DrawOptions& options, const Image
 }
 
 }  // namespace
+
+int drawable_levels(const Mesh& mesh, int most, double scale) {
+    const double s = pick_scale(mesh, {.scale = scale});
+    int levels = std::max(most, 0);
+    while (levels > 0 && !drawable(mesh, levels, s)) --levels;
+    return levels;
+}
 
 Image draw_mesh(const Mesh& mesh, const DrawOptions& options, const Image* background) {
     return with_opencv_errors("mesh drawing",

@@ -21,6 +21,10 @@ struct DrawOptions {
 // resized to the output size). Throws Error for invalid meshes or absurd sizes.
 Image draw_mesh(const Mesh& mesh, const DrawOptions& options, const Image* background = nullptr);
 
+// The most refinement levels, at most `most`, that a picture at `scale` (0: the default) can show:
+// draw_mesh refuses a level with more edges than twice the picture's pixels.
+int drawable_levels(const Mesh& mesh, int most, double scale = 0.0);
+
 // The same picture as SVG; `background_href` (a path or URL) is placed under the lines.
 std::string draw_mesh_svg(const Mesh& mesh, const DrawOptions& options,
                           const std::string& background_href = "");

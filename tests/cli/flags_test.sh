@@ -41,6 +41,17 @@ if ((status == 1)) && [[ ! -e $dir/big.mp4 ]] && grep -q "^tesswave: --size 8000
 else
     fail "a morph past the sample limit: exit $status, $(cat "$dir/err.txt")"
 fi
+# analyze on a mesh as dense as the pixels: its mesh picture draws the levels it can show (it
+# drew three and failed at the end: "draw: level 1 has 1438721 edges ...").
+check "samples 400x300" "$tesswave" samples -o "$dir/s400" --size 400x300
+check "analyze on a mesh as dense as the pixels" "$tesswave" analyze "$dir/s400/scene.png" \
+    --mesh voronoi:120000 -J 1 --keep 10 -o "$dir/dense"
+[[ -s $dir/dense/mesh.png ]] && pass "its mesh picture is written" || fail "no mesh picture"
+# An SVG past 10 MB is said to be one (a 4-face mesh at -J 8: 38 MB without a word).
+check "mesh grid 2x2" "$tesswave" mesh grid --cells 2x2 --size 64x48 -o "$dir/m22.json"
+check "mesh draw -J 8 to SVG" "$tesswave" mesh draw "$dir/m22.json" -J 8 -o "$dir/m22.svg"
+grep -q "^warning: .*m22.svg: .* make an SVG of 3[0-9] MB" "$dir/err.txt" &&
+    pass "the SVG's size is said: $(cat "$dir/err.txt")" || fail "no SVG size warning"
 check "inbetween --at 0.5" "$tesswave" inbetween "$s/pair_a.png" "$s/pair_b.png" --at 0.5 \
     -o "$dir/ib.png"
 refuse "morph --frames 0" "$dir/bad.gif" \
