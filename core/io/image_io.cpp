@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -151,7 +152,16 @@ Image read_image(const std::string& path, const ImageLimits& limits, ImageNotes*
     return image;
 }
 
-bool image_writable(const std::string& path) { return plugin(path).writable(path); }
+bool image_writable(const std::string& path) {
+    // The common kinds are answered without loading the image module (a hundred megabytes of
+    // libraries): a command refused for its input then costs no more than the command itself.
+    std::string ext = std::filesystem::path(path).extension().string();
+    for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    for (const char* known : {".png", ".tif", ".tiff", ".jpg", ".jpeg", ".exr"}) {
+        if (ext == known) return true;
+    }
+    return plugin(path).writable(path);
+}
 
 void write_image(const Image& image, const std::string& path) {
     const int channels = image.channels();

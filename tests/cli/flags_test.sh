@@ -195,5 +195,15 @@ if [[ ${TESSWAVE_IMAGE_MODULE:-1} == 1 ]]; then
     else
         fail "compress: no OpenImageIO"
     fi
+    # decompress of a file it refuses: the output's name (.png) is checked without the module.
+    head -c 40 "$dir/ld.twi" >"$dir/cut.twi"
+    status=0
+    LD_DEBUG=files "$tesswave" decompress "$dir/cut.twi" -o "$dir/cut.png" >/dev/null \
+        2>"$dir/ld.txt" || status=$?
+    if ((status == 1)) && ! grep -q libOpenImageIO "$dir/ld.txt"; then
+        pass "decompress of a cut file refused without OpenImageIO"
+    else
+        fail "decompress of a cut file: exit $status, OpenImageIO $(grep -c libOpenImageIO "$dir/ld.txt")"
+    fi
 fi
 finish
