@@ -108,10 +108,15 @@ struct TwvLimits {
     double max_samples_per_pixel = 20;    // and at most this many a pixel (plus 2^20)
     int64_t max_chunk_bytes = 256 << 20;  // a chunk's payload
     int64_t max_frames = 100'000'000;
-    // What a file may claim for its size (as TwiLimits): any file may have frames of free_pixels
-    // pixels; larger frames need a byte of file for each pixels_per_byte pixels of a frame.
-    int64_t free_pixels = int64_t{1} << 19;
-    int64_t pixels_per_byte = 256;
+    // What a file may claim for its size: any file may have frames of free_pixels pixels; larger
+    // frames need a byte of file for each pixels_per_byte pixels of a frame. Tighter than
+    // TwiLimits: a clip's frames go to an encoder (x264, FFV1) whose buffers grow with the frame,
+    // about 0.27 KB a pixel for x264 and 148 bytes for FFV1's zeroed packet buffer, so 2^19 + 256
+    // a byte let a 1.2 KB file of 724x724 frames cost 143 MB above the process's floor to MP4 and
+    // 118 MB to MKV. A 1 KB file now has frames of at most 0.33 M pixels (572x572); a 1280x720
+    // clip needs 10 KB (the encoder pads one that codes to less).
+    int64_t free_pixels = int64_t{1} << 18;
+    int64_t pixels_per_byte = 64;
     // A lifted group is held whole: its frames times the coefficients of a frame, 4 bytes each.
     // The encoder shortens groups to fit.
     int64_t max_group_bytes = int64_t{512} << 20;
