@@ -3,8 +3,11 @@
 #pragma once
 
 #include <gtest/gtest.h>
+#include <sys/resource.h>
+#include <unistd.h>
 
 #include <cstdlib>
+#include <fstream>
 #include <limits>
 #include <string>
 #include <typeinfo>
@@ -55,6 +58,16 @@ void expect_error_or_return_in_child(F body) {
             std::_Exit(0);
         },
         ::testing::ExitedWithCode(0), "");
+}
+
+// In a test's child process: the address space may grow by `extra` bytes only (an allocation
+// past it throws std::bad_alloc). Not under AddressSanitizer, whose shadow memory it would refuse.
+inline void cap_address_space(size_t extra) {
+    size_t pages = 0;
+    std::ifstream("/proc/self/statm") >> pages;
+    const rlim_t cap = pages * static_cast<size_t>(sysconf(_SC_PAGESIZE)) + extra;
+    const rlimit limit{cap, cap};
+    setrlimit(RLIMIT_AS, &limit);
 }
 
 }  // namespace tesswave::testing

@@ -24,15 +24,6 @@ namespace {
 
 using namespace testing;
 
-// In a test's child process: the address space may grow by `extra` bytes only.
-void cap_address_space(size_t extra) {
-    size_t pages = 0;
-    std::ifstream("/proc/self/statm") >> pages;
-    const rlim_t cap = pages * static_cast<size_t>(sysconf(_SC_PAGESIZE)) + extra;
-    const rlimit limit{cap, cap};
-    setrlimit(RLIMIT_AS, &limit);
-}
-
 // A header whose band arrays fit its transform and levels (so that the field under test is what
 // gets refused), with a stream of `stream_bytes` bytes.
 Bytes header_file(TwiHeader h, size_t stream_bytes = 0, uint8_t planes = 4) {

@@ -12,6 +12,7 @@
 #include "core/math/error.h"
 #include "core/math/metrics.h"
 #include "core/math/strings.h"
+#include "robustness.h"
 #include "samples/sample_clip.h"
 #include "temp_dir.h"
 #include "video/dec_video.h"
@@ -482,6 +483,43 @@ TEST(TwvRobustness, AMeshGroupsSamplesAreBoundedByTheFileSize) {
     }
     VideoDecoder trusting(path, {.free_samples = int64_t{1} << 20});
     EXPECT_TRUE(trusting.skim()) << trusting.damage();
+    fs::remove(path);
+}
+
+// The same probe as a bound on memory: a file of about 100 bytes whose group claims 6.2 M mesh
+// samples (a 78x78 grid at J = 5 on 512x512 frames, within 20 samples a pixel and 2^20) is
+// decoded in a child whose address space may grow by 100 MiB only. Before the samples were
+// weighed, its domain (about 160 bytes a sample) ran out of that space.
+TEST(TwvRobustness, ATinyFileClaimingAHugeMeshDecodesWithin100MiB) {
+#if defined(__SANITIZE_ADDRESS__)
+    GTEST_SKIP() << "address-space limits do not work under AddressSanitizer";
+#endif
+    const TwvHeader header{.width = 512, .height = 512};
+    TwvGroup g = grid_group(header, 2);
+    g.transform = TwiTransform::mesh;
+    g.motion = TwvMotion::none;
+    g.levels = 5;
+    g.grid_cols = 78;
+    g.grid_rows = 78;
+    g.band_norms.assign(twv_band_count(g, header), 1.0f);
+    EXPECT_EQ(twv_group_samples(g), 2497 * 2497);
+    EXPECT_TRUE(twv_group_size_problem(g, header).empty());
+    const std::string path =
+        crafted({group_chunk(g), twv_chunk('F', write_twv_frame(empty_intra(g), g))}, header);
+    EXPECT_LT(fs::file_size(path), 200u);
+    tesswave::testing::expect_error_or_return_in_child([&] {
+        tesswave::testing::cap_address_space(size_t{100} << 20);
+        try {
+            VideoDecoder decoder(path);
+            Image frame;
+            while (decoder.read(frame)) {
+            }
+            if (decoder.damage().find("its mesh has") == std::string::npos) std::_Exit(5);
+        } catch (const std::bad_alloc&) {
+            std::fprintf(stderr, "the decoder needed more than 100 MiB\n");
+            std::_Exit(4);
+        }
+    });
     fs::remove(path);
 }
 
