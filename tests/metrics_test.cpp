@@ -248,6 +248,42 @@ TEST(Metrics, values_are_quantized_and_clamped_first) {
     EXPECT_NEAR(psnr(reference, test).mse_all, 1.0 / 64, 1e-15);
 }
 
+// The quantizer rounds as roundf(v * peak) does (half away from zero), clamped to [0, peak], NaN
+// to 0: checked through the squared errors against a zero image, on the values next to every
+// half step (v * peak = n + 1/2 and its neighbouring floats), both ends, the infinities and NaN.
+TEST(Metrics, quantization_rounds_as_roundf_does) {
+    for (const int depth : {8, 10, 16}) {
+        const int32_t peak = (int32_t{1} << depth) - 1;
+        const float scale = static_cast<float>(peak);
+        std::vector<float> values = {0.0f,
+                                     -0.0f,
+                                     1.0f,
+                                     2.0f,
+                                     -1.0f,
+                                     std::numeric_limits<float>::infinity(),
+                                     -std::numeric_limits<float>::infinity(),
+                                     std::numeric_limits<float>::quiet_NaN()};
+        for (int32_t n = -2; n <= peak + 1; ++n) {
+            const float half = (static_cast<float>(n) + 0.5f) / scale;
+            float v = std::nextafter(std::nextafter(half, -1.0f), -1.0f);
+            for (int k = 0; k < 5; ++k, v = std::nextafter(v, 2.0f)) values.push_back(v);
+        }
+        const auto expected = [&](float v) -> double {
+            const float s = std::round(v * scale);
+            if (!(s > 0.0f)) return 0;
+            return s >= scale ? peak : s;
+        };
+        const int w = 64, h = static_cast<int>((values.size() + w - 1) / w);
+        Image zero = make_image(w, h, 1), test = make_image(w, h, 1);
+        double sum = 0;
+        for (size_t i = 0; i < values.size(); ++i) {
+            test.planes[0][i] = values[i];
+            sum += expected(values[i]) * expected(values[i]);
+        }
+        EXPECT_EQ(psnr(zero, test, {.bit_depth = depth}).mse_all, sum / (w * h)) << depth;
+    }
+}
+
 // One 8x8 window of constants p and q: no variance, so SSIM = (2 pq 64^2 + C1) / ((p^2 + q^2)
 // 64^2 + C1) with C1 = 416, and samples outside the last whole 4x4 block do not count.
 TEST(Metrics, ssim_of_one_window_uses_ffmpeg_constant) {
