@@ -108,13 +108,16 @@ std::vector<Planes> decode_lifted_group(const CodingDomain& domain, std::span<co
 }
 
 void synthesize_frames(const CodingDomain& domain, std::span<Planes> coefficients,
-                       std::span<const std::vector<Vec2>> vertices, std::span<Image> images) {
-    if (coefficients.size() < images.size() || vertices.size() < images.size()) {
+                       std::span<const std::vector<Vec2>> vertices, std::span<Image> images,
+                       std::span<const std::optional<RenderPlan>> plans) {
+    if (coefficients.size() < images.size() || vertices.size() < images.size() ||
+        (!plans.empty() && plans.size() < images.size())) {
         throw Error("lifted group: fewer frames than images");
     }
     parallel_for(static_cast<int64_t>(images.size()), [&](int64_t begin, int64_t end) {
         for (auto k = static_cast<size_t>(begin); k < static_cast<size_t>(end); ++k) {
-            domain.synthesize(std::move(coefficients[k]), vertices[k], images[k]);
+            const RenderPlan* plan = !plans.empty() && plans[k] ? &*plans[k] : nullptr;
+            domain.synthesize(std::move(coefficients[k]), vertices[k], images[k], plan);
         }
     });
 }

@@ -49,8 +49,10 @@ TemporalTree temporal_tree(const TwvHeader& header);
 
 // Renders images.size() frames of a lifted group, the coefficients (moved from, as synthesize
 // takes them) and vertices of frame k at coefficients[k] and vertices[k] into images[k]: a frame
-// per core at a time, each frame's own kernels on its core (small frames split badly).
+// per core at a time, each frame's own kernels on its core (small frames split badly). `plans`,
+// when not empty, holds domain.plan_for(vertices[k]) at k (kept by an encoder's step search).
 void synthesize_frames(const CodingDomain& domain, std::span<Planes> coefficients,
-                       std::span<const std::vector<Vec2>> vertices, std::span<Image> images);
+                       std::span<const std::vector<Vec2>> vertices, std::span<Image> images,
+                       std::span<const std::optional<RenderPlan>> plans = {});
 
 }  // namespace tesswave::video

@@ -289,8 +289,22 @@ void CodingDomain::sample_into(const Image& image, std::span<const Vec2> vertice
     }
 }
 
-void CodingDomain::to_image(const Planes& samples, std::span<const Vec2> vertices,
-                            Image& out) const {
+std::optional<RenderPlan> CodingDomain::plan_for(std::span<const Vec2> vertices) const {
+    if (!hierarchy_ || !pixel_of_sample_.empty()) return std::nullopt;
+    // At rest (a still image, a static video group, a tracked mesh that has not moved) the plan
+    // made with the domain serves: the same plan plan_render would make again.
+    if (shape_.canvas) {
+        if (vertices.empty()) throw Error("a canvas needs vertex positions");
+        return plan_render(*hierarchy_, vertices, shape_.width, shape_.height, shape_.width,
+                           shape_.height);
+    }
+    if (vertices.empty() || at_rest(vertices)) return std::nullopt;
+    return plan_render(*hierarchy_, vertices, shape_.mesh.width, shape_.mesh.height, shape_.width,
+                       shape_.height);
+}
+
+void CodingDomain::to_image(const Planes& samples, std::span<const Vec2> vertices, Image& out,
+                            const RenderPlan* plan) const {
     out = make_image(shape_.width, shape_.height, shape_.channels, shape_.format);
     if (!hierarchy_) {
         out.planes = samples;
@@ -298,20 +312,12 @@ void CodingDomain::to_image(const Planes& samples, std::span<const Vec2> vertice
     }
     if (pixel_of_sample_.empty()) {
         const std::vector<std::span<const float>> in(samples.begin(), samples.end());
-        // At rest (a still image, a static video group, a tracked mesh that has not moved) the
-        // plan made with the domain serves: the same plan plan_render would make again.
-        if (shape_.canvas) {
-            if (vertices.empty()) throw Error("a canvas needs vertex positions");
-            render_into(plan_render(*hierarchy_, vertices, shape_.width, shape_.height,
-                                    shape_.width, shape_.height),
-                        in, out);
-        } else if (vertices.empty() || at_rest(vertices)) {
-            render_into(*rest_plan_, in, out);
-        } else {
-            render_into(plan_render(*hierarchy_, vertices, shape_.mesh.width, shape_.mesh.height,
-                                    shape_.width, shape_.height),
-                        in, out);
+        if (plan) {
+            render_into(*plan, in, out);
+            return;
         }
+        const std::optional<RenderPlan> own = plan_for(vertices);
+        render_into(own ? *own : *rest_plan_, in, out);
         return;
     }
     for (int c = 0; c < out.channels(); ++c) {
@@ -398,9 +404,10 @@ void CodingDomain::inverse(Planes& x) const {
     if (shape_.colour == TwiColour::ycbcr) ycbcr_inverse(x[0], x[1], x[2]);
 }
 
-void CodingDomain::synthesize(Planes x, std::span<const Vec2> vertices, Image& out) const {
+void CodingDomain::synthesize(Planes x, std::span<const Vec2> vertices, Image& out,
+                              const RenderPlan* plan) const {
     inverse(x);
-    to_image(x, vertices, out);
+    to_image(x, vertices, out, plan);
 }
 
 Image CodingDomain::synthesize(Planes coefficients) const {

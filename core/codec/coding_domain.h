@@ -111,8 +111,13 @@ class CodingDomain {
     void analyze_fits(const Image& image, std::span<const double> smoothness,
                       const ProjectOptions& projection,
                       const std::function<void(size_t, Planes&)>& take) const;
-    // The image of `coefficients` (consumed) on those vertex positions.
-    void synthesize(Planes coefficients, std::span<const Vec2> vertices, Image& out) const;
+    // The image of `coefficients` (consumed) on those vertex positions; `plan`, when given, is
+    // plan_for(vertices), kept by a caller that renders the same positions many times.
+    void synthesize(Planes coefficients, std::span<const Vec2> vertices, Image& out,
+                    const RenderPlan* plan = nullptr) const;
+    // The render plan synthesize makes for these positions (a moved mesh, a canvas); none where
+    // it needs none (at rest its own, or samples that are pixels).
+    std::optional<RenderPlan> plan_for(std::span<const Vec2> vertices) const;
     Image synthesize(Planes coefficients) const;
 
     // Lossless, at rest: integer samples (pixel values in [0, 2^depth - 1]), integer lifting.
@@ -137,7 +142,8 @@ class CodingDomain {
     void sample_into(const Image& image, std::span<const Vec2> vertices, Planes& out,
                      Sampling sampling = Sampling::point,
                      const ProjectOptions& projection = {}) const;
-    void to_image(const Planes& samples, std::span<const Vec2> vertices, Image& out) const;
+    void to_image(const Planes& samples, std::span<const Vec2> vertices, Image& out,
+                  const RenderPlan* plan = nullptr) const;
     GridTransformOptions grid_options() const;
 
     DomainShape shape_;
