@@ -162,15 +162,17 @@ int64_t VideoEncoder::frame_budget(bool intra, uint64_t spent) const {
 // The coefficients a fully decoded frame holds when `x` is quantized with `base_step`.
 Planes VideoEncoder::requantized(const CodingDomain& domain, const Planes& x,
                                  float base_step) const {
-    // Every plane known: the decoder's reconstruction of a fully decoded frame.
-    const DecodedPlanes d{.value = quantize_planes(domain, x, base_step),
-                          .known = std::vector<std::vector<uint8_t>>(
-                              x.size(), std::vector<uint8_t>(domain.size(), 0)),
-                          .complete = true};
+    // Every plane known: the decoder's reconstruction of a fully decoded frame (as
+    // quantize_planes, then dequantize; in one pass).
+    const CodingLayout& layout = domain.layout();
     Planes y = domain.zeros();
     for (size_t c = 0; c < y.size(); ++c) {
-        const int channel = static_cast<int>(c);
-        dequantize(domain.layout(), d, channel, domain.band_steps(channel, base_step), false, y[c]);
+        requantize(layout, x[c], domain.band_steps(static_cast<int>(c), base_step), y[c]);
+        if (!options_.chroma_420 || c == 0 || c > 2) continue;
+        for (const CodingBand& b : layout.bands) {
+            if (!finest_band(layout, b)) continue;
+            for (int32_t k = b.begin; k < b.end; ++k) y[c][layout.order[k]] = 0.0f;
+        }
     }
     return y;
 }

@@ -563,4 +563,19 @@ void dequantize(const CodingLayout& layout, const DecodedPlanes& decoded, int ch
     }
 }
 
+void requantize(const CodingLayout& layout, std::span<const float> x,
+                std::span<const float> band_steps, std::span<float> out) {
+    for (size_t b = 0; b < layout.bands.size(); ++b) {
+        const float step = band_steps[b], inv = 1.0f / step;
+        for (int32_t k = layout.bands[b].begin; k < layout.bands[b].end; ++k) {
+            const int32_t id = layout.order[k];
+            const float m = std::floor(std::abs(x[id]) * inv);
+            if (!(m < 1e9f)) throw Error("quantizer step too small for these values");
+            // As dequantize: the magnitude as an integer's float, 3/8 of a step into its interval.
+            const float v = static_cast<float>(static_cast<int32_t>(m)) + kRecon;
+            out[id] = m == 0.0f ? 0.0f : (x[id] < 0 ? -v : v) * step;
+        }
+    }
+}
+
 }  // namespace tesswave

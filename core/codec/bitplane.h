@@ -64,4 +64,10 @@ void quantize(const CodingLayout& layout, std::span<const float> x,
 void dequantize(const CodingLayout& layout, const DecodedPlanes& decoded, int channel,
                 std::span<const float> band_steps, bool exact, std::span<float> out);
 
+// quantize followed by dequantize with every plane known and `exact` false, in one pass and
+// without the integer planes: what a decoder reconstructs from the whole stream at these steps
+// (an encoder's search for a step measures it). The same floats; throws as quantize does.
+void requantize(const CodingLayout& layout, std::span<const float> x,
+                std::span<const float> band_steps, std::span<float> out);
+
 }  // namespace tesswave
