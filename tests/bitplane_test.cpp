@@ -193,8 +193,7 @@ TEST(Bitplane, dead_zone_quantization_and_its_reconstruction) {
 
 // requantize gives the floats of quantize then dequantize (every plane known, not exact), on
 // random values over many magnitudes, at several steps per band, zeros and the dead zone included.
-TEST(Bitplane, requantize_equals_quantize_then_dequantize) {
-    const CodingLayout layout = grid_layout(37, 29, 3, GridWavelet::cdf97, false);
+void expect_requantize_equals_the_two_steps(const CodingLayout& layout) {
     std::mt19937 rng(7);
     std::uniform_real_distribution<float> unit(-1.0f, 1.0f);
     std::vector<float> x(layout.size);
@@ -216,6 +215,19 @@ TEST(Bitplane, requantize_equals_quantize_then_dequantize) {
                 << i << ": " << x[i] << " at " << base;
         }
     }
+}
+
+TEST(Bitplane, requantize_equals_quantize_then_dequantize) {
+    for (const GridRelations relations : {GridRelations::computed, GridRelations::listed}) {
+        SCOPED_TRACE(relations == GridRelations::computed ? "rectangles" : "listed");
+        expect_requantize_equals_the_two_steps(
+            grid_layout(37, 29, 3, GridWavelet::cdf97, false, relations));
+    }
+    // A step far too small for the values is refused, as quantize refuses it.
+    const CodingLayout layout = grid_layout(8, 8, 1, GridWavelet::cdf53, false);
+    std::vector<float> x(layout.size, 1.0f), out(layout.size);
+    const std::vector<float> tiny(layout.bands.size(), 1e-12f);
+    EXPECT_THROW(requantize(layout, x, tiny, out), Error);
 }
 
 }  // namespace

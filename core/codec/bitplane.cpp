@@ -563,19 +563,44 @@ void dequantize(const CodingLayout& layout, const DecodedPlanes& decoded, int ch
     }
 }
 
+namespace {
+
+// One coefficient of requantize: 0 in the dead zone, else as dequantize, the magnitude (floor
+// of |x| / step, a truncation since it is not negative) as an integer's float, 3/8 of a step into
+// its interval, with x's sign. Branch-free so that the rows vectorize; `bad` is set when the
+// magnitude reaches 1e9 (or x is NaN).
+inline float requantize_one(float x, float step, float inv, int& bad) {
+    const float a = std::abs(x) * inv;
+    const bool ok = a < 1e9f;
+    bad |= !ok;
+    const auto m = static_cast<int32_t>(ok ? a : 0.0f);
+    const float v = (static_cast<float>(m) + kRecon) * step;
+    return m == 0 ? 0.0f : std::copysign(v, x);
+}
+
+}  // namespace
+
 void requantize(const CodingLayout& layout, std::span<const float> x,
                 std::span<const float> band_steps, std::span<float> out) {
+    int bad = 0;
     for (size_t b = 0; b < layout.bands.size(); ++b) {
         const float step = band_steps[b], inv = 1.0f / step;
+        if (!layout.grid_bands.empty()) {  // rectangles of the Mallat plane, row by row
+            const GridBand& r = layout.grid_bands[b];
+            for (int y = r.y0; y < r.y0 + r.height; ++y) {
+                const size_t first = static_cast<size_t>(y) * layout.grid_width + r.x0;
+                const float* __restrict in = x.data() + first;
+                float* __restrict to = out.data() + first;
+                for (int i = 0; i < r.width; ++i) to[i] = requantize_one(in[i], step, inv, bad);
+            }
+            continue;
+        }
         for (int32_t k = layout.bands[b].begin; k < layout.bands[b].end; ++k) {
             const int32_t id = layout.order[k];
-            const float m = std::floor(std::abs(x[id]) * inv);
-            if (!(m < 1e9f)) throw Error("quantizer step too small for these values");
-            // As dequantize: the magnitude as an integer's float, 3/8 of a step into its interval.
-            const float v = static_cast<float>(static_cast<int32_t>(m)) + kRecon;
-            out[id] = m == 0.0f ? 0.0f : (x[id] < 0 ? -v : v) * step;
+            out[id] = requantize_one(x[id], step, inv, bad);
         }
     }
+    if (bad) throw Error("quantizer step too small for these values");
 }
 
 }  // namespace tesswave
