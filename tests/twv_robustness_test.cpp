@@ -451,21 +451,26 @@ TEST(TwvRobustness, ALiftedGroupsMemoryIsBoundedByTheFileSize) {
     }
 }
 
-// A group's mesh is weighed against the file's bytes as a still file's is: a 101-byte file whose
-// group claimed 11.5 M samples (724x724 frames, within 20 samples a pixel) cost its decoder
-// 1.9 GiB. Here a 2x2 grid at J = 8 (263169 samples, 512x512 frames) is refused in a file of
-// about 100 bytes,
-// naming the group and the file's size, by `info` (skimming) as by decoding; limits that trust
-// the file (--max-pixels) let it through.
-TEST(TwvRobustness, AMeshGroupsSamplesAreBoundedByTheFileSize) {
-    const TwvHeader header{.width = 512, .height = 512};
+// A static grid-mesh group of cols x rows cells at level J for `header`'s frames.
+TwvGroup static_mesh_group(const TwvHeader& header, int cols, int rows, int levels) {
     TwvGroup g = grid_group(header, 2);
     g.transform = TwiTransform::mesh;
     g.motion = TwvMotion::none;
-    g.levels = 8;
-    g.grid_cols = 2;
-    g.grid_rows = 2;
+    g.levels = levels;
+    g.grid_cols = cols;
+    g.grid_rows = rows;
     g.band_norms.assign(twv_band_count(g, header), 1.0f);
+    return g;
+}
+
+// A group's mesh is weighed against the file's bytes as a still file's is: a 101-byte file whose
+// group claimed 11.5 M samples (724x724 frames, within 20 samples a pixel) cost its decoder
+// 1.9 GiB. Here a 2x2 grid at J = 8 (263169 samples, 512x512 frames) is refused in a file of
+// about 100 bytes, naming the group and the file's size, by `info` (skimming) as by decoding;
+// limits that trust the file (--max-pixels) let it through.
+TEST(TwvRobustness, AMeshGroupsSamplesAreBoundedByTheFileSize) {
+    const TwvHeader header{.width = 512, .height = 512};
+    const TwvGroup g = static_mesh_group(header, 2, 2, 8);
     const std::string path =
         crafted({group_chunk(g), twv_chunk('F', write_twv_frame(empty_intra(g), g))}, header);
     const int64_t size = static_cast<int64_t>(fs::file_size(path));
@@ -495,13 +500,7 @@ TEST(TwvRobustness, ATinyFileClaimingAHugeMeshDecodesWithin100MiB) {
     GTEST_SKIP() << "address-space limits do not work under AddressSanitizer";
 #endif
     const TwvHeader header{.width = 512, .height = 512};
-    TwvGroup g = grid_group(header, 2);
-    g.transform = TwiTransform::mesh;
-    g.motion = TwvMotion::none;
-    g.levels = 5;
-    g.grid_cols = 78;
-    g.grid_rows = 78;
-    g.band_norms.assign(twv_band_count(g, header), 1.0f);
+    const TwvGroup g = static_mesh_group(header, 78, 78, 5);
     EXPECT_EQ(twv_group_samples(g), 2497 * 2497);
     EXPECT_TRUE(twv_group_size_problem(g, header).empty());
     const std::string path =
