@@ -177,19 +177,45 @@ morph::Schedule schedule(const MorphArgs& a, int levels) {
     return s;
 }
 
-// A morph whose mesh would pass the hierarchy's sample limit is refused before the matching,
-// naming the image whose size sets it (a flat 8192x8192 PNG of 212 KB ran 75 s and 14.6 GiB
-// before "level 5 needs 119093569 samples"). With J chosen, the mesh has about `density`
-// samples a pixel of the output.
-void check_morph_size(const std::string& name, int width, int height, double density, int levels) {
-    if (levels > 0) return;  // the hierarchy counts J's samples itself
+// A morph whose mesh would pass the hierarchy's sample limit is refused before the matching where
+// that is certain, and otherwise before the morph is built, naming the image whose size sets it
+// (a flat 8192x8192 PNG of 212 KB ran 75 s and 14.6 GiB before "level 5 needs 119093569
+// samples"). With J chosen for `density`, a mesh has between half and twice density samples a
+// pixel of the output (level_for_density takes the nearest level), so an estimate past twice the
+// limit cannot fit.
+void check_morph_estimate(const std::string& name, int width, int height, double density,
+                          int levels) {
     const double samples = density * width * height;
     const int64_t limit = HierarchyOptions{}.max_samples;
-    if (samples > static_cast<double>(limit)) {
+    if (levels == 0 && samples > 2.0 * static_cast<double>(limit)) {
         throw Error(str(name, ": a morph of ", width, "x", height, " pixels at ", density,
                         " samples a pixel needs about ", static_cast<int64_t>(samples),
                         " mesh samples (the limit is ", limit, "); lower --density or --size"));
     }
+}
+
+// The exact count, once the pair's mesh is known.
+void check_morph_mesh(const std::string& name, const Mesh& mesh, int width, int height,
+                      const morph::MorphOptions& options) {
+    const int levels = morph::morph_levels(mesh, width, height, options);
+    const int64_t samples = sample_count(mesh, levels), limit = HierarchyOptions{}.max_samples;
+    if (samples > limit) {
+        throw Error(str(name, ": a morph of ", width, "x", height, " pixels on this mesh has ",
+                        samples, " samples at level ", levels, " (the limit is ", limit,
+                        "); lower --density, -J or --size"));
+    }
+}
+
+// The frames' size: --size, or A's, or for a GIF at most kGifSide pixels a side (0 x 0: A's).
+std::pair<int, int> morph_output_size(const MorphArgs& a, const Image& ia) {
+    if (!a.size.empty()) return parse_cells(a.size, "--size");
+    if (fs::path(a.output).extension() == ".gif" && a.at < 0 &&
+        std::max(ia.width, ia.height) > kGifSide) {
+        const double s = static_cast<double>(kGifSide) / std::max(ia.width, ia.height);
+        return {std::max(1, static_cast<int>(std::lround(ia.width * s))),
+                std::max(1, static_cast<int>(std::lround(ia.height * s)))};
+    }
+    return {0, 0};
 }
 
 void run_morph(const MorphArgs& a) {
@@ -198,12 +224,10 @@ void run_morph(const MorphArgs& a) {
     if (a.frames < 1 && a.at < 0) throw CLI::ValidationError("--frames", "must be at least 1");
     check_output(a.output, a.overwrite, {a.a, a.b});
     const Image ia = read_input(a.a), ib = read_input(a.b);
-    if (a.size.empty()) {
-        check_morph_size(a.a, ia.width, ia.height, a.density, a.levels);
-    } else {
-        const auto [w, h] = parse_cells(a.size, "--size");
-        check_morph_size("--size " + a.size, w, h, a.density, a.levels);
-    }
+    const auto [out_w, out_h] = morph_output_size(a, ia);
+    const std::string size_name = a.size.empty() ? a.a : "--size " + a.size;
+    check_morph_estimate(size_name, out_w > 0 ? out_w : ia.width, out_h > 0 ? out_h : ia.height,
+                         a.density, a.levels);
     // The landmark model loads while the faces are detected (after the images: an unreadable
     // image is reported at once, not after the model's half second).
     if (a.automatic) morph::prepare_faces();
@@ -241,21 +265,16 @@ void run_morph(const MorphArgs& a) {
     }
     morph::MorphOptions o{.levels = a.levels, .density = a.density};
     o.sampling = sampling_from_name(a.sampling);
-    if (!a.size.empty()) {
-        auto [w, h] = parse_cells(a.size, "--size");
-        o.width = w;
-        o.height = h;
-    } else if (fs::path(a.output).extension() == ".gif" && a.at < 0 &&
-               std::max(ia.width, ia.height) > kGifSide) {
-        // GIFs stay small: at most kGifSide pixels a side unless --size says otherwise.
-        const double s = static_cast<double>(kGifSide) / std::max(ia.width, ia.height);
-        o.width = std::max(1, static_cast<int>(std::lround(ia.width * s)));
-        o.height = std::max(1, static_cast<int>(std::lround(ia.height * s)));
-        warn(str("note: the GIF is ", o.width, "x", o.height, " (--size WxH for another size)"));
+    o.width = out_w;
+    o.height = out_h;
+    // GIFs stay small: at most kGifSide pixels a side unless --size says otherwise.
+    if (a.size.empty() && out_w > 0) {
+        warn(str("note: the GIF is ", out_w, "x", out_h, " (--size WxH for another size)"));
     }
+    const int width = out_w > 0 ? out_w : ia.width, height = out_h > 0 ? out_h : ia.height;
+    check_morph_mesh(size_name, pair.a, width, height, o);
     // Schedules name the levels 0 (base) .. J.
-    o.levels = morph::morph_levels(pair.a, o.width > 0 ? o.width : ia.width,
-                                   o.height > 0 ? o.height : ia.height, o);
+    o.levels = morph::morph_levels(pair.a, width, height, o);
     o.schedule = schedule(a, o.levels + 1);
     o.progress = progress_range(progress, 0.7 * setup, setup);
     const morph::Morph morph(ia, ib, pair.a, pair.b, o);
@@ -310,7 +329,7 @@ void run_compare_morph(const MorphArgs& a) {
     }
     check_output(a.output, a.overwrite, {a.a, a.b});
     const Image ia = read_input(a.a), ib = read_input(a.b);
-    check_morph_size(a.a, ia.width, ia.height, a.density, a.levels);
+    check_morph_estimate(a.a, ia.width, ia.height, a.density, a.levels);
     // The landmark model loads while the faces are detected (after the images: an unreadable
     // image is reported at once, not after the model's half second).
     if (a.automatic) morph::prepare_faces();
@@ -320,6 +339,7 @@ void run_compare_morph(const MorphArgs& a) {
     bar.update(0.0, "correspondences");
     const Points points = correspondences(a, ia, ib, report, progress_range(progress, 0, 0.2));
     const morph::PairMeshes pair = pair_meshes(a, points, ia, ib);
+    check_morph_mesh(a.a, pair.a, ia.width, ia.height, {.levels = a.levels, .density = a.density});
     report["correspondences"] = points.c.a.size();
     report["mesh"] = pair.description;
     if (!pair.repair.empty()) warn("note: " + pair.repair);

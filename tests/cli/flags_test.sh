@@ -41,6 +41,17 @@ if ((status == 1)) && [[ ! -e $dir/big.mp4 ]] && grep -q "^tesswave: --size 8000
 else
     fail "a morph past the sample limit: exit $status, $(cat "$dir/err.txt")"
 fi
+# Past the limit by the mesh's exact count (the estimate, 59 M samples, could still fit): refused
+# once the pair's mesh is known, before the morph is built.
+status=0
+"$tesswave" morph "$s/pair_a.png" "$s/pair_b.png" --size 7000x7000 --density 1.2 \
+    -o "$dir/big2.mp4" >/dev/null 2>"$dir/err.txt" || status=$?
+if ((status == 1)) && [[ ! -e $dir/big2.mp4 ]] &&
+    grep -q "^tesswave: --size 7000x7000: .* on this mesh has .* samples at level" "$dir/err.txt"; then
+    pass "a morph past the limit by its mesh refused: $(tail -1 "$dir/err.txt")"
+else
+    fail "a morph past the limit by its mesh: exit $status, $(cat "$dir/err.txt")"
+fi
 # analyze on a mesh as dense as the pixels: its mesh picture draws the levels it can show (it
 # drew three and failed at the end: "draw: level 1 has 1438721 edges ...").
 check "samples 400x300" "$tesswave" samples -o "$dir/s400" --size 400x300
@@ -50,7 +61,7 @@ check "analyze on a mesh as dense as the pixels" "$tesswave" analyze "$dir/s400/
 # An SVG past 10 MB is said to be one (a 4-face mesh at -J 8: 38 MB without a word).
 check "mesh grid 2x2" "$tesswave" mesh grid --cells 2x2 --size 64x48 -o "$dir/m22.json"
 check "mesh draw -J 8 to SVG" "$tesswave" mesh draw "$dir/m22.json" -J 8 -o "$dir/m22.svg"
-grep -q "^warning: .*m22.svg: .* make an SVG of 3[0-9] MB" "$dir/err.txt" &&
+grep -q "^warning: .*m22.svg: T0 and 8 refinement levels make an SVG of 3[0-9] MB" "$dir/err.txt" &&
     pass "the SVG's size is said: $(cat "$dir/err.txt")" || fail "no SVG size warning"
 check "inbetween --at 0.5" "$tesswave" inbetween "$s/pair_a.png" "$s/pair_b.png" --at 0.5 \
     -o "$dir/ib.png"
