@@ -43,11 +43,16 @@ void refuse_inputs_inside(const std::string& dir, const std::vector<std::string>
         if (in.empty() || !fs::exists(in, ec)) continue;
         const fs::path file = fs::canonical(in, ec);
         if (ec) continue;
-        // Where the file is, and where its name is (a symlink's own place): replacing either
-        // changes what the user named as an input.
-        const fs::path named =
-            fs::canonical(fs::absolute(in, ec).parent_path(), ec) / fs::path(in).filename();
-        for (const fs::path& place : {file, named}) {
+        // Where the file is, and, for an input named through a symlink, where the link is:
+        // replacing either changes what the user named as an input.
+        std::vector<fs::path> places = {file};
+        fs::path given = fs::path(in).lexically_normal();
+        if (!given.has_filename()) given = given.parent_path();  // "link/"
+        if (fs::is_symlink(fs::symlink_status(given, ec))) {
+            places.push_back(fs::weakly_canonical(fs::absolute(given, ec).parent_path(), ec) /
+                             given.filename());
+        }
+        for (const fs::path& place : places) {
             const auto [end, _] =
                 std::mismatch(folder.begin(), folder.end(), place.begin(), place.end());
             if (end == folder.end()) throw Error(dir + ": output folder holds the input " + in);

@@ -2,6 +2,7 @@
 #pragma once
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <chrono>
 #include <limits>
 #include <string>
@@ -123,14 +124,16 @@ inline CLI::Option* add_max_pixels_option(CLI::App* cmd, int64_t& value) {
         ->check(CLI::Range(int64_t{1}, int64_t{1} << 32));
 }
 
-// The limits a --max-pixels value gives (0: the defaults).
+// The limits a --max-pixels value gives (0: the defaults). It caps the pixels at N and trusts a
+// file up to N, never less than the defaults trust any file.
 template <class Limits>
 Limits limits_for(int64_t max_pixels) {
     Limits l;
     if (max_pixels > 0) {
         l.max_pixels = max_pixels;
-        l.free_pixels = max_pixels;
-        if constexpr (requires { l.free_samples; }) l.free_samples = max_pixels;
+        l.free_pixels = std::max(l.free_pixels, max_pixels);
+        if constexpr (requires { l.free_samples; })
+            l.free_samples = std::max(l.free_samples, max_pixels);
         if constexpr (requires { l.free_work_pixels; }) {  // nor the work and a group's memory
             l.free_work_pixels = std::numeric_limits<int64_t>::max();
             l.free_group_bytes = l.max_group_bytes;

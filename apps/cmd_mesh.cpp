@@ -319,9 +319,8 @@ void add_draw(CLI::App& mesh_cmd) {
         // refused by the drawing itself).
         const auto warn_svg_size = [&](size_t bytes) {
             if (bytes <= 10'000'000) return;
-            const int64_t edges = level_counts(mesh, args->draw.levels)[args->draw.levels].edges;
-            warn(str("warning: ", args->out.path, ": ", edges, " lines at level ",
-                     args->draw.levels, " make an SVG of ", bytes / 1'000'000,
+            warn(str("warning: ", args->out.path, ": T0 and ", args->draw.levels,
+                     " refinement levels make an SVG of ", bytes / 1'000'000,
                      " MB (fewer --levels, or a PNG, is lighter)"));
         };
         if (svg) {

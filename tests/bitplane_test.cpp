@@ -7,6 +7,7 @@
 #include <bit>
 #include <cmath>
 #include <cstdlib>
+#include <limits>
 #include <random>
 
 #include "core/math/error.h"
@@ -200,6 +201,9 @@ void expect_requantize_equals_the_two_steps(const CodingLayout& layout) {
     for (size_t i = 0; i < x.size(); ++i) {
         x[i] = i % 11 == 0 ? 0.0f : unit(rng) * std::ldexp(1.0f, static_cast<int>(i % 13) - 4);
     }
+    x[3] = -0.0f;
+    x[5] = std::numeric_limits<float>::denorm_min();
+    x[7] = -std::numeric_limits<float>::denorm_min();
     for (const float base : {0.01f, 0.3f, 2.0f}) {
         std::vector<float> steps(layout.bands.size());
         for (size_t b = 0; b < steps.size(); ++b) steps[b] = base * (1.0f + 0.37f * b);

@@ -528,21 +528,27 @@ TEST(TwvRobustness, TheEncoderPadsAFileTooSmallForItsMesh) {
     const std::string path = temp_path("dense.twv");
     Image flat = make_image(256, 256, 3, SampleFormat::f32);
     for (auto& plane : flat.planes) std::fill(plane.begin(), plane.end(), 0.5f);
-    VideoEncoder encoder(
-        path, 256, 256, 25,
-        {.motion = TwvMotion::none, .density = 4, .kbps = 1, .grid_groups = false});
-    for (int t = 0; t < 2; ++t) encoder.encode(flat);
-    const int64_t bytes = encoder.finish();
-    EXPECT_GT(encoder.padding(), 0);
-    const int64_t samples = 513 * 513;
-    EXPECT_GE(twv_samples_allowed(bytes), samples);
-    EXPECT_LT(twv_samples_allowed(bytes - 1), samples);
-    VideoDecoder decoder(path);
-    Image frame;
-    int frames = 0;
-    while (decoder.read(frame)) ++frames;
-    EXPECT_EQ(frames, 2) << decoder.damage();
-    EXPECT_TRUE(decoder.damage().empty()) << decoder.damage();
+    for (const bool low_delay : {false, true}) {  // lifted groups and low-delay ones
+        SCOPED_TRACE(low_delay ? "low delay" : "lifted");
+        VideoEncoder encoder(path, 256, 256, 25,
+                             {.motion = TwvMotion::none,
+                              .density = 4,
+                              .low_delay = low_delay,
+                              .kbps = low_delay ? 0.0 : 1.0,  // low delay: at the default quality
+                              .grid_groups = false});
+        for (int t = 0; t < 2; ++t) encoder.encode(flat);
+        const int64_t bytes = encoder.finish();
+        EXPECT_GT(encoder.padding(), 0);
+        const int64_t samples = 513 * 513;
+        EXPECT_GE(twv_samples_allowed(bytes), samples);
+        EXPECT_LT(twv_samples_allowed(bytes - 1), samples);
+        VideoDecoder decoder(path);
+        Image frame;
+        int frames = 0;
+        while (decoder.read(frame)) ++frames;
+        EXPECT_EQ(frames, 2) << decoder.damage();
+        EXPECT_TRUE(decoder.damage().empty()) << decoder.damage();
+    }
     fs::remove(path);
 }
 

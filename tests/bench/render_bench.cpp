@@ -97,8 +97,8 @@ void BM_sample_full(benchmark::State& state) {
     finish(state);
 }
 
-// Density 1, the codecs' default grid (not aligned with the pixels): point sampling against the
-// projection (project.h) with its default options, on the same mesh.
+// Density 1, the still codec's default grid until 2026-12-07 (not aligned with the pixels): point
+// sampling against the projection (project.h) with its default options, on the same mesh.
 struct DensityOne {
     DefaultGrid g = default_grid(kWidth, kHeight, 1.0);
     Mesh mesh = grid_mesh(kWidth, kHeight, g.cols, g.rows);
