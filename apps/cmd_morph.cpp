@@ -16,7 +16,6 @@
 #include "core/io/image_io.h"
 #include "core/io/mesh_io.h"
 #include "core/math/error.h"
-#include "core/math/hierarchy.h"
 #include "core/math/parallel.h"
 #include "core/math/project.h"
 #include "core/math/strings.h"
@@ -177,35 +176,6 @@ morph::Schedule schedule(const MorphArgs& a, int levels) {
     return s;
 }
 
-// A morph whose mesh would pass the hierarchy's sample limit is refused before the matching where
-// that is certain, and otherwise before the morph is built, naming the image whose size sets it
-// (a flat 8192x8192 PNG of 212 KB ran 75 s and 14.6 GiB before "level 5 needs 119093569
-// samples"). With J chosen for `density`, a mesh has between half and twice density samples a
-// pixel of the output (level_for_density takes the nearest level), so an estimate past twice the
-// limit cannot fit.
-void check_morph_estimate(const std::string& name, int width, int height, double density,
-                          int levels) {
-    const double samples = density * width * height;
-    const int64_t limit = HierarchyOptions{}.max_samples;
-    if (levels == 0 && samples > 2.0 * static_cast<double>(limit)) {
-        throw Error(str(name, ": a morph of ", width, "x", height, " pixels at ", density,
-                        " samples a pixel needs about ", static_cast<int64_t>(samples),
-                        " mesh samples (the limit is ", limit, "); lower --density or --size"));
-    }
-}
-
-// The exact count, once the pair's mesh is known.
-void check_morph_mesh(const std::string& name, const Mesh& mesh, int width, int height,
-                      const morph::MorphOptions& options) {
-    const int levels = morph::morph_levels(mesh, width, height, options);
-    const int64_t samples = sample_count(mesh, levels), limit = HierarchyOptions{}.max_samples;
-    if (samples > limit) {
-        throw Error(str(name, ": a morph of ", width, "x", height, " pixels on this mesh has ",
-                        samples, " samples at level ", levels, " (the limit is ", limit,
-                        "); lower --density, -J or --size"));
-    }
-}
-
 // The frames' size: --size, or A's, or for a GIF at most kGifSide pixels a side (0 x 0: A's).
 std::pair<int, int> morph_output_size(const MorphArgs& a, const Image& ia) {
     if (!a.size.empty()) return parse_cells(a.size, "--size");
@@ -226,8 +196,8 @@ void run_morph(const MorphArgs& a) {
     const Image ia = read_input(a.a), ib = read_input(a.b);
     const auto [out_w, out_h] = morph_output_size(a, ia);
     const std::string size_name = a.size.empty() ? a.a : "--size " + a.size;
-    check_morph_estimate(size_name, out_w > 0 ? out_w : ia.width, out_h > 0 ? out_h : ia.height,
-                         a.density, a.levels);
+    morph::check_sample_estimate(size_name, out_w > 0 ? out_w : ia.width,
+                                 out_h > 0 ? out_h : ia.height, a.density, a.levels);
     // The landmark model loads while the faces are detected (after the images: an unreadable
     // image is reported at once, not after the model's half second).
     if (a.automatic) morph::prepare_faces();
@@ -272,7 +242,7 @@ void run_morph(const MorphArgs& a) {
         warn(str("note: the GIF is ", out_w, "x", out_h, " (--size WxH for another size)"));
     }
     const int width = out_w > 0 ? out_w : ia.width, height = out_h > 0 ? out_h : ia.height;
-    check_morph_mesh(size_name, pair.a, width, height, o);
+    morph::check_samples(size_name, pair.a, width, height, o);
     // Schedules name the levels 0 (base) .. J.
     o.levels = morph::morph_levels(pair.a, width, height, o);
     o.schedule = schedule(a, o.levels + 1);
@@ -329,7 +299,7 @@ void run_compare_morph(const MorphArgs& a) {
     }
     check_output(a.output, a.overwrite, {a.a, a.b});
     const Image ia = read_input(a.a), ib = read_input(a.b);
-    check_morph_estimate(a.a, ia.width, ia.height, a.density, a.levels);
+    morph::check_sample_estimate(a.a, ia.width, ia.height, a.density, a.levels);
     // The landmark model loads while the faces are detected (after the images: an unreadable
     // image is reported at once, not after the model's half second).
     if (a.automatic) morph::prepare_faces();
@@ -339,7 +309,8 @@ void run_compare_morph(const MorphArgs& a) {
     bar.update(0.0, "correspondences");
     const Points points = correspondences(a, ia, ib, report, progress_range(progress, 0, 0.2));
     const morph::PairMeshes pair = pair_meshes(a, points, ia, ib);
-    check_morph_mesh(a.a, pair.a, ia.width, ia.height, {.levels = a.levels, .density = a.density});
+    morph::check_samples(a.a, pair.a, ia.width, ia.height,
+                         {.levels = a.levels, .density = a.density});
     report["correspondences"] = points.c.a.size();
     report["mesh"] = pair.description;
     if (!pair.repair.empty()) warn("note: " + pair.repair);

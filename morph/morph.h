@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include "core/math/hierarchy.h"
@@ -37,6 +38,16 @@ struct MorphOptions {
 // J of a morph: options.levels, or the level of mesh_a (scaled to the output size) closest to
 // options.density samples a pixel. The CLI asks it to name the schedule's levels.
 int morph_levels(const Mesh& mesh_a, int width, int height, const MorphOptions& options);
+
+// A morph whose mesh would pass the hierarchy's sample limit, refused (Error naming `name`, the
+// image or option that sets the size) before the work: check_sample_estimate before the
+// matching, where the estimate (density samples a pixel of the output) cannot fit, since the
+// level chosen for a density lands within a factor 2 of it; check_samples with the pair's mesh,
+// exactly, before the morph is built. With options.levels (J) given, only the exact count.
+void check_sample_estimate(const std::string& name, int width, int height, double density,
+                           int levels);
+void check_samples(const std::string& name, const Mesh& mesh, int width, int height,
+                   const MorphOptions& options);
 
 struct FrameOptions {
     bool preview = false;  // render the coarse levels only (J - 2, at least 1): fast look-ups
