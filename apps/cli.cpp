@@ -307,12 +307,6 @@ CLI::Validator positive(const std::string& what) {
         "POSITIVE");
 }
 
-std::string lowercase_extension(const std::string& path) {
-    std::string e = std::filesystem::path(path).extension().string();
-    for (char& c : e) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-    return e;
-}
-
 CLI::Validator output_extension(std::vector<std::string> extensions, const std::string& job,
                                 const std::string& kinds) {
     return CLI::Validator(

@@ -10,6 +10,7 @@
 
 #include "core/codec/twi_format.h"
 #include "core/eval/analysis.h"
+#include "core/io/file_io.h"
 #include "core/io/image_io.h"
 #include "frame_sink.h"
 
@@ -71,9 +72,6 @@ class ProgressBar {
 
 // A check for options that must be a positive (finite) number: "must be <what>, not '<text>'".
 CLI::Validator positive(const std::string& what);
-
-// A path's extension in lower case, with its dot ("" for none): what the kind of a file follows.
-std::string lowercase_extension(const std::string& path);
 
 // The kind of an output follows from its extension: a check that it is one of `extensions` (with
 // their dots, any case), "<path>: <job> writes <kinds>" otherwise (exit 2, before any work).

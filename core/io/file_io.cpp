@@ -4,6 +4,7 @@
 #include <signal.h>
 #include <unistd.h>
 
+#include <cctype>
 #include <cerrno>
 #include <cstdio>
 #include <cstdlib>
@@ -136,6 +137,12 @@ void write_file_atomic(const std::string& path, std::string_view bytes) {
         }
     }
     commit_temporary(tmp, path);
+}
+
+std::string lowercase_extension(const std::string& path) {
+    std::string e = std::filesystem::path(path).extension().string();
+    for (char& c : e) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    return e;
 }
 
 }  // namespace tesswave

@@ -9,6 +9,9 @@
 namespace tesswave {
 
 // Throws Error("<path>: ...") when the file cannot be read or is larger than max_bytes.
+// A path's extension in lower case, with its dot ("" for none): what the kind of a file follows.
+std::string lowercase_extension(const std::string& path);
+
 std::string read_file(const std::string& path, int64_t max_bytes = int64_t{1} << 30);
 
 // Writes to a temporary name beside path (".<stem>.tmp-<pid><ext>") and renames it over path;

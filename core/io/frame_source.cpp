@@ -15,6 +15,7 @@ extern "C" {
 #include <string_view>
 #include <vector>
 
+#include "core/io/file_io.h"
 #include "core/io/image_io.h"
 #include "core/io/video_io.h"
 #include "core/io/video_libav.h"
@@ -26,16 +27,10 @@ namespace {
 
 namespace fs = std::filesystem;
 
-std::string lower(std::string s) {
-    std::transform(s.begin(), s.end(), s.begin(),
-                   [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-    return s;
-}
-
 bool is_image_file(const fs::path& path) {
     static const std::array<std::string_view, 10> extensions = {
         ".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp", ".ppm", ".pgm", ".exr", ".webp"};
-    const std::string ext = lower(path.extension().string());
+    const std::string ext = lowercase_extension(path.string());
     return std::find(extensions.begin(), extensions.end(), ext) != extensions.end();
 }
 
@@ -250,7 +245,7 @@ FrameSource::FrameSource(const std::string& path, const FrameSourceOptions& opti
     if (fs::is_directory(path, ec)) {
         input = std::make_unique<FolderInput>(path, options);
         input->fps = 25;
-    } else if (lower(fs::path(path).extension().string()) == ".yuv") {
+    } else if (lowercase_extension(path) == ".yuv") {
         input = std::make_unique<RawYuvInput>(path, options);
         input->fps = 25;
     } else {

@@ -155,8 +155,7 @@ Image read_image(const std::string& path, const ImageLimits& limits, ImageNotes*
 bool image_writable(const std::string& path) {
     // The common kinds are answered without loading the image module (a hundred megabytes of
     // libraries): a command refused for its input then costs no more than the command itself.
-    std::string ext = std::filesystem::path(path).extension().string();
-    for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    const std::string ext = lowercase_extension(path);
     for (const char* known : {".png", ".tif", ".tiff", ".jpg", ".jpeg", ".exr"}) {
         if (ext == known) return true;
     }

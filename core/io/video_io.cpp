@@ -234,9 +234,7 @@ struct Container {
 };
 
 Container container_for(const std::string& path, VideoCodec codec) {
-    std::string ext = std::filesystem::path(path).extension().string();
-    std::transform(ext.begin(), ext.end(), ext.begin(),
-                   [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+    const std::string ext = lowercase_extension(path);
     const Container c = ext == ".mp4"   ? Container{"mp4", "MP4"}
                         : ext == ".mov" ? Container{"mov", "QuickTime"}
                         : ext == ".mkv" ? Container{"matroska", "Matroska"}
