@@ -2,7 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <memory>
+#include <string>
 #include <utility>
 
 #include "core/math/error.h"
@@ -36,8 +38,7 @@ void add_data_term(const RenderPlan& plan, const Image& image, const SharedNodes
                    NormalMatrix& A, Planes& rhs) {
     const int channels = image.channels();
     constexpr float kUnit = 1.0f / 65536.0f;
-    const int dr[4] = {0, 0, 1, 1}, dc[4] = {0, 1, 0, 1};
-    const int32_t offset[4] = {0, 1, A.side, A.side + 1};
+    const int32_t side = A.side;
     // The pixels of quad q are the plan's entries from first_pixel[q] on.
     std::vector<size_t> first_pixel(A.quads + 1, 0);
     for (size_t q = 0; q < A.quads; ++q) {
@@ -46,12 +47,17 @@ void add_data_term(const RenderPlan& plan, const Image& image, const SharedNodes
             count += static_cast<size_t>(plan.run_length[run]);
         first_pixel[q + 1] = first_pixel[q] + count;
     }
+    A.pixels.resize(A.quads);
+    for (size_t q = 0; q < A.quads; ++q)
+        A.pixels[q] = static_cast<int64_t>(first_pixel[q + 1] - first_pixel[q]);
     const size_t stashed = shared.k.size();
     std::vector<float> stash(static_cast<size_t>(channels) * stashed);
     parallel_for(static_cast<int64_t>(A.quads), [&](int64_t begin, int64_t end) {
         std::vector<float> local(static_cast<size_t>(channels) * A.grid_size);
         for (auto q = static_cast<size_t>(begin); q < static_cast<size_t>(end); ++q) {
             std::fill_n(A.entry(q, 0), 9 * static_cast<size_t>(A.grid_size), 0.0f);
+            float* e[9];
+            for (int k = 0; k < 9; ++k) e[k] = A.entry(q, k);
             std::fill(local.begin(), local.end(), 0.0f);
             size_t i = first_pixel[q];
             for (int32_t run = plan.quad_runs[q]; run < plan.quad_runs[q + 1]; ++run) {
@@ -64,14 +70,21 @@ void add_data_term(const RenderPlan& plan, const Image& image, const SharedNodes
                     const float s = plan.st[i][0] * kUnit, t = plan.st[i][1] * kUnit;
                     const float w[4] = {(1 - s) * (1 - t), s * (1 - t), (1 - s) * t, s * t};
                     const int32_t cell = plan.cell[i];
-                    for (int a = 0; a < 4; ++a) {
-                        const int32_t node = cell + offset[a];
-                        for (int b = 0; b < 4; ++b) {
-                            A.entry(q, stencil_entry(dr[b] - dr[a], dc[b] - dc[a]))[node] +=
-                                w[a] * w[b];
-                        }
-                        for (int c = 0; c < channels; ++c)
-                            local[c * A.grid_size + node] += w[a] * image.planes[c][px];
+                    // The 16 products of the four weights, each to its own entry and node (so
+                    // their order does not matter): node a gets w_a w_b at entry (b - a).
+                    const int32_t n0 = cell, n1 = cell + 1, n2 = cell + side, n3 = n2 + 1;
+                    e[4][n0] += w[0] * w[0], e[5][n0] += w[0] * w[1];
+                    e[7][n0] += w[0] * w[2], e[8][n0] += w[0] * w[3];
+                    e[3][n1] += w[1] * w[0], e[4][n1] += w[1] * w[1];
+                    e[6][n1] += w[1] * w[2], e[7][n1] += w[1] * w[3];
+                    e[1][n2] += w[2] * w[0], e[2][n2] += w[2] * w[1];
+                    e[4][n2] += w[2] * w[2], e[5][n2] += w[2] * w[3];
+                    e[0][n3] += w[3] * w[0], e[1][n3] += w[3] * w[1];
+                    e[3][n3] += w[3] * w[2], e[4][n3] += w[3] * w[3];
+                    for (int c = 0; c < channels; ++c) {
+                        float* l = local.data() + c * A.grid_size;
+                        const float v = image.planes[c][px];
+                        l[n0] += w[0] * v, l[n1] += w[1] * v, l[n2] += w[2] * v, l[n3] += w[3] * v;
                     }
                 }
             }
@@ -248,8 +261,11 @@ void Solver::solve(double smoothness, Projection& result) {
     const std::vector<float>& owner = g.owner;
 
     // Preconditioned conjugate gradients on the local grids, all channels through one pass over
-    // the stencils. The preconditioned residual z = r / diagonal is never stored: r.z and
-    // p = z + beta p read r.
+    // the stencils. With Jacobi, the preconditioned residual z = r / diagonal is never stored:
+    // r.z and p = z + beta p read r; the line preconditioner writes z where A p was (no longer
+    // needed once x and r have stepped). The products p.Ap and r.z come with the passes that make
+    // Ap and z.
+    const bool lines = o_.preconditioner == Preconditioner::lines;
     std::vector<float> inverse(size, 0.0f);  // 0 in the margins, which stay 0
     for (size_t q = 0; q < A_.quads; ++q) {
         for (int32_t k = 0; k < A_.grid_size; ++k) {
@@ -257,20 +273,25 @@ void Solver::solve(double smoothness, Projection& result) {
                 static_cast<float>(1.0 / A_.diagonal[A_.grid[q * A_.grid_size + k]]);
         }
     }
+    detail::LinePreconditioner lp;
+    if (lines) lp = detail::make_line_preconditioner(A_, g);
     Planes x(channels), r(channels, std::vector<float>(size, 0.0f)), p = r, Ap = r;
     for (int c = 0; c < channels; ++c) to_local(A_, g, result.planes[c], x[c]);
     std::vector<int> all(channels);
     for (int c = 0; c < channels; ++c) all[c] = c;
     std::vector<float> products;
     multiply(A_, shared_, g, x, Ap, all, products);
-    std::vector<double> rz(channels), norm_b(channels);
-    std::vector<int> active;
     for (int c = 0; c < channels; ++c) {
         for (size_t k = 0; k < size; ++k) {
             r[c][k] = b[c][k] - Ap[c][k];
             p[c][k] = r[c][k] * inverse[k];
         }
-        rz[c] = dot(r[c], p[c], owner);
+    }
+    std::vector<double> rz(channels), norm_b(channels), pAp, rz_lines;
+    if (lines) detail::precondition(A_, shared_, g, lp, r, p, all, products, &rz);
+    std::vector<int> active;
+    for (int c = 0; c < channels; ++c) {
+        if (!lines) rz[c] = dot(r[c], p[c], owner);
         const double rr = dot(r[c], r[c], owner);
         norm_b[c] = std::sqrt(dot(b[c], b[c], owner));
         const double relative = norm_b[c] > 0 ? std::sqrt(rr) / norm_b[c] : 0.0;
@@ -280,18 +301,23 @@ void Solver::solve(double smoothness, Projection& result) {
     const detail::VectorKernels& kernels = detail::vector_kernels();
     while (!active.empty() && result.iterations < o_.max_iterations) {
         ++result.iterations;
-        multiply(A_, shared_, g, p, Ap, active, products);
+        multiply(A_, shared_, g, p, Ap, active, products, &pAp);
         // Each channel's step on its own (the channels shared among the cores).
         const size_t n = active.size();
         std::vector<double> relative(n, -1.0);
         parallel_for(static_cast<int64_t>(n), [&](int64_t begin, int64_t end) {
             for (auto a = static_cast<size_t>(begin); a < static_cast<size_t>(end); ++a) {
                 const int c = active[a];
-                const double pAp = dot(p[c], Ap[c], owner);
-                if (!(pAp > 0)) continue;  // converged to rounding
-                const float step = static_cast<float>(rz[c] / pAp);
+                if (!(pAp[a] > 0)) continue;  // converged to rounding
+                const float step = static_cast<float>(rz[c] / pAp[a]);
                 float* __restrict rc = r[c].data();
                 float* __restrict pc = p[c].data();
+                if (lines) {
+                    const double rr = kernels.step_residual(step, x[c].data(), rc, pc, Ap[c].data(),
+                                                            owner.data(), size);
+                    relative[a] = std::sqrt(rr) / norm_b[c];
+                    continue;  // p follows once z is known
+                }
                 const auto [rz_next, rr] = kernels.step_channel(
                     step, x[c].data(), rc, pc, Ap[c].data(), inverse.data(), owner.data(), size);
                 const float beta = static_cast<float>(rz_next / rz[c]);
@@ -308,6 +334,18 @@ void Solver::solve(double smoothness, Projection& result) {
             if (relative[a] > o_.tolerance) still.push_back(active[a]);
         }
         active = std::move(still);
+        if (lines && !active.empty()) {
+            Planes& z = Ap;
+            detail::precondition(A_, shared_, g, lp, r, z, active, products, &rz_lines);
+            parallel_for(static_cast<int64_t>(active.size()), [&](int64_t begin, int64_t end) {
+                for (auto a = static_cast<size_t>(begin); a < static_cast<size_t>(end); ++a) {
+                    const int c = active[a];
+                    const float beta = static_cast<float>(rz_lines[a] / rz[c]);
+                    rz[c] = rz_lines[a];
+                    kernels.next_direction_from(beta, z[c].data(), p[c].data(), size);
+                }
+            });
+        }
     }
     for (int c = 0; c < channels; ++c) from_local(A_, g, x[c], result.planes[c]);
 }

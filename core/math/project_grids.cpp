@@ -1,6 +1,7 @@
 #include "core/math/project_grids.h"
 
 #include <algorithm>
+#include <cmath>
 
 #include "core/math/parallel.h"
 
@@ -92,7 +93,34 @@ namespace {
     for (size_t k = 0; k < n; ++k) p[k] = r[k] * inverse[k] + beta * p[k];
 }
 
-// One build of the four kernels per instruction set: TESSWAVE_KERNELS(suffix, attributes...).
+[[gnu::always_inline]] inline double step_residual_body(float step, float* __restrict x,
+                                                        float* __restrict r,
+                                                        const float* __restrict p,
+                                                        const float* __restrict ap,
+                                                        const float* __restrict owner, size_t n) {
+    double rr[4] = {0, 0, 0, 0};
+    const size_t whole = n - n % 4;
+    for (size_t k = 0; k < whole; k += 4) {
+        for (int i = 0; i < 4; ++i) {
+            x[k + i] += step * p[k + i];
+            r[k + i] -= step * ap[k + i];
+            rr[i] += static_cast<double>(r[k + i] * owner[k + i]) * r[k + i];
+        }
+    }
+    for (size_t k = whole; k < n; ++k) {
+        x[k] += step * p[k];
+        r[k] -= step * ap[k];
+        rr[k % 4] += static_cast<double>(r[k] * owner[k]) * r[k];
+    }
+    return (rr[0] + rr[1]) + (rr[2] + rr[3]);
+}
+
+[[gnu::always_inline]] inline void next_direction_from_body(float beta, const float* __restrict z,
+                                                            float* __restrict p, size_t n) {
+    for (size_t k = 0; k < n; ++k) p[k] = z[k] + beta * p[k];
+}
+
+// One build of the six kernels per instruction set: TESSWAVE_KERNELS(suffix, attributes...).
 #define TESSWAVE_KERNELS(suffix, ...)                                                          \
     __VA_ARGS__ void stencil_row_##suffix(const float* const* st, const float* g,              \
                                           const int32_t* offset, int32_t n, float* o) {        \
@@ -111,8 +139,17 @@ namespace {
                                              float* p, size_t n) {                             \
         next_direction_body(beta, r, inverse, p, n);                                           \
     }                                                                                          \
-    constexpr VectorKernels kernels_##suffix = {stencil_row_##suffix, dot_##suffix,            \
-                                                step_channel_##suffix, next_direction_##suffix};
+    __VA_ARGS__ double step_residual_##suffix(float step, float* x, float* r, const float* p,  \
+                                              const float* ap, const float* owner, size_t n) { \
+        return step_residual_body(step, x, r, p, ap, owner, n);                                \
+    }                                                                                          \
+    __VA_ARGS__ void next_direction_from_##suffix(float beta, const float* z, float* p,        \
+                                                  size_t n) {                                  \
+        next_direction_from_body(beta, z, p, n);                                               \
+    }                                                                                          \
+    constexpr VectorKernels kernels_##suffix = {                                               \
+        stencil_row_##suffix,    dot_##suffix,           step_channel_##suffix,                \
+        next_direction_##suffix, step_residual_##suffix, next_direction_from_##suffix};
 
 TESSWAVE_KERNELS(baseline)
 #if defined(__x86_64__)
@@ -135,6 +172,41 @@ const VectorKernels& vector_kernels() {
     static const VectorKernels& picked = avx2_kernels() ? *avx2_kernels() : baseline_kernels();
     return picked;
 }
+
+namespace {
+
+// u . v over a quad's own (unshared) nodes, in node order.
+double own_dot(const float* u, const float* v, const uint8_t* shared, int32_t n) {
+    double sum = 0;
+    for (int32_t k = 0; k < n; ++k) sum += shared[k] ? 0.0 : double{u[k]} * v[k];
+    return sum;
+}
+
+// The parts of multiply's and precondition's dot products: one per quad and one per shared
+// sample, for each active channel, added in that order.
+class OwnedDots {
+  public:
+    OwnedDots(const std::vector<double>* dots, size_t channels, size_t quads, size_t groups)
+        : channels_(channels), stride_(quads + groups), quads_(quads) {
+        if (dots) parts_.assign(channels * stride_, 0.0);
+    }
+    double& quad(size_t a, size_t q) { return parts_[a * stride_ + q]; }
+    double& group(size_t a, int64_t i) {
+        return parts_[a * stride_ + quads_ + static_cast<size_t>(i)];
+    }
+    void sum(std::vector<double>& dots) const {
+        dots.assign(channels_, 0.0);
+        for (size_t a = 0; a < channels_; ++a) {
+            for (size_t i = 0; i < stride_; ++i) dots[a] += parts_[a * stride_ + i];
+        }
+    }
+
+  private:
+    size_t channels_, stride_, quads_;
+    std::vector<double> parts_;
+};
+
+}  // namespace
 
 SharedNodes find_shared(const NormalMatrix& A, size_t samples) {
     std::vector<uint8_t> count(samples, 0);
@@ -228,10 +300,12 @@ void from_local(const NormalMatrix& A, const LocalGrids& g, const std::vector<fl
 }
 
 void multiply(const NormalMatrix& A, const SharedNodes& s, const LocalGrids& g, const Planes& x,
-              Planes& y, const std::vector<int>& active, std::vector<float>& products) {
+              Planes& y, const std::vector<int>& active, std::vector<float>& products,
+              std::vector<double>* dots) {
     const int32_t side = g.side, grid_size = g.grid_size;
     const size_t n = active.size(), shared = s.k.size();
     products.resize(n * shared);
+    OwnedDots parts(dots, n, A.quads, g.offsets.size() - 1);
     const float alpha = static_cast<float>(A.alpha);
     const VectorKernels& kernels = vector_kernels();
     const int32_t offset[9] = {-side - 1, -side, -side + 1, -1, 0, 1, side - 1, side, side + 1};
@@ -246,6 +320,8 @@ void multiply(const NormalMatrix& A, const SharedNodes& s, const LocalGrids& g, 
                 float* stash = products.data() + a * shared;
                 for (int32_t i = s.offsets[q]; i < s.offsets[q + 1]; ++i) stash[i] = yq[s.k[i]];
                 for (int32_t k = 0; k < grid_size; ++k) yq[k] = alpha * xq[k] + yq[k];
+                if (dots)
+                    parts.quad(a, q) = own_dot(xq, yq, s.shared.data() + q * grid_size, grid_size);
             }
         }
     });
@@ -262,10 +338,163 @@ void multiply(const NormalMatrix& A, const SharedNodes& s, const LocalGrids& g, 
                     for (int32_t j = g.offsets[i]; j < g.offsets[i + 1]; ++j)
                         total += stash[g.stashed[j]];
                     for (int32_t j = g.offsets[i]; j < g.offsets[i + 1]; ++j) yc[g.copy[j]] = total;
+                    if (dots) parts.group(a, i) = double{xc[g.copy[g.offsets[i]]]} * total;
                 }
             }
         },
         1024);
+    if (dots) parts.sum(*dots);
+}
+
+// Cells a pixel above which a quad keeps Jacobi (project_grids.h).
+constexpr double kLinesUpTo = 1.4;
+
+LinePreconditioner make_line_preconditioner(const NormalMatrix& A, const LocalGrids& g) {
+    LinePreconditioner m;
+    const int32_t n = A.side;
+    m.side = n;
+    m.scale.assign(g.size, 0.0f);
+    for (size_t q = 0; q < A.quads; ++q) {
+        const int32_t* ids = A.grid + q * A.grid_size;
+        for (int32_t k = 0; k < A.grid_size; ++k)
+            m.scale[g.index(q, k)] = static_cast<float>(1.0 / std::sqrt(A.diagonal[ids[k]]));
+    }
+    for (size_t i = 0; i + 1 < g.offsets.size(); ++i) {
+        const int32_t copies = g.offsets[i + 1] - g.offsets[i];
+        for (int32_t j = g.offsets[i]; j < g.offsets[i + 1]; ++j)
+            m.scale[g.copy[j]] *= static_cast<float>(1.0 / std::sqrt(copies));
+    }
+    m.factors.resize(A.quads * 2 * (1 + 2 * static_cast<size_t>(n)));
+    parallel_for(static_cast<int64_t>(A.quads), [&](int64_t begin, int64_t end) {
+        for (auto q = static_cast<size_t>(begin); q < static_cast<size_t>(end); ++q) {
+            const int32_t* ids = A.grid + q * A.grid_size;
+            double damping = 0;
+            for (int32_t k = 0; k < A.grid_size; ++k) damping += A.alpha / A.diagonal[ids[k]];
+            const double eps = std::sqrt(damping / A.grid_size);
+            const int64_t cells = int64_t{n - 1} * (n - 1);
+            const bool jacobi = static_cast<double>(cells) > kLinesUpTo * A.pixels[q];
+            for (int direction = 0; direction < 2; ++direction) {
+                const int32_t step = direction == 0 ? 1 : n;
+                const float* coupling =
+                    A.entry(q, direction == 0 ? stencil_entry(0, 1) : stencil_entry(1, 0));
+                double sum = 0;
+                int64_t count = 0;
+                for (int32_t r = 0; r < n; ++r) {
+                    for (int32_t c = 0; c < n; ++c) {
+                        if ((direction == 0 ? c : r) + 1 >= n) continue;
+                        const int32_t k = r * n + c;
+                        sum +=
+                            coupling[k] / std::sqrt(A.diagonal[ids[k]] * A.diagonal[ids[k + step]]);
+                        ++count;
+                    }
+                }
+                const double a =
+                    jacobi ? 0.0 : std::clamp(count > 0 ? sum / count : 0.0, -0.5, 0.5);
+                const double diagonal = jacobi ? 1.0 : 1 + eps;
+                float* f =
+                    m.factors.data() + (q * 2 + direction) * (1 + 2 * static_cast<size_t>(n));
+                float* multiplier = f + 1;
+                float* inverse_pivot = f + 1 + n;
+                f[0] = static_cast<float>(a);
+                double pivot = diagonal;
+                multiplier[0] = 0;
+                inverse_pivot[0] = static_cast<float>(1 / pivot);
+                for (int32_t i = 1; i < n; ++i) {
+                    const double mi = a / pivot;
+                    pivot = diagonal - mi * a;
+                    multiplier[i] = static_cast<float>(mi);
+                    inverse_pivot[i] = static_cast<float>(1 / pivot);
+                }
+            }
+        }
+    });
+    return m;
+}
+
+namespace {
+
+// u = (T + eps I)^-1 u along the columns of an n x n grid (each column a system, all columns at
+// once, so the loops run along rows).
+void solve_columns(const float* f, int32_t n, float* __restrict u) {
+    const float* multiplier = f + 1;
+    const float* inverse_pivot = f + 1 + n;
+    for (int32_t r = 1; r < n; ++r) {
+        const float m = multiplier[r];
+        float* __restrict row = u + r * n;
+        const float* __restrict above = row - n;
+        for (int32_t c = 0; c < n; ++c) row[c] -= m * above[c];
+    }
+    for (int32_t c = 0; c < n; ++c) u[(n - 1) * n + c] *= inverse_pivot[n - 1];
+    for (int32_t r = n - 2; r >= 0; --r) {
+        const float ip = inverse_pivot[r], m = multiplier[r + 1];
+        float* __restrict row = u + r * n;
+        const float* __restrict below = row + n;
+        for (int32_t c = 0; c < n; ++c) row[c] = row[c] * ip - m * below[c];
+    }
+}
+
+// The same along the rows (each row a system; the rows are independent chains, interleaved).
+void solve_rows(const float* f, int32_t n, float* __restrict u) {
+    const float* multiplier = f + 1;
+    const float* inverse_pivot = f + 1 + n;
+    for (int32_t c = 1; c < n; ++c) {
+        const float m = multiplier[c];
+        for (int32_t r = 0; r < n; ++r) u[r * n + c] -= m * u[r * n + c - 1];
+    }
+    for (int32_t r = 0; r < n; ++r) u[r * n + n - 1] *= inverse_pivot[n - 1];
+    for (int32_t c = n - 2; c >= 0; --c) {
+        const float ip = inverse_pivot[c], m = multiplier[c + 1];
+        for (int32_t r = 0; r < n; ++r) u[r * n + c] = u[r * n + c] * ip - m * u[r * n + c + 1];
+    }
+}
+
+}  // namespace
+
+void precondition(const NormalMatrix& A, const SharedNodes& s, const LocalGrids& g,
+                  const LinePreconditioner& m, const Planes& r, Planes& z,
+                  const std::vector<int>& active, std::vector<float>& products,
+                  std::vector<double>* dots) {
+    const int32_t n = A.side, grid_size = A.grid_size;
+    const size_t count = active.size(), shared = s.k.size();
+    products.resize(count * shared);
+    OwnedDots parts(dots, count, A.quads, g.offsets.size() - 1);
+    parallel_for(static_cast<int64_t>(A.quads), [&](int64_t begin, int64_t end) {
+        std::vector<float> u(static_cast<size_t>(grid_size));
+        for (auto q = static_cast<size_t>(begin); q < static_cast<size_t>(end); ++q) {
+            const float* scale = m.scale.data() + g.index(q, 0);
+            for (size_t a = 0; a < count; ++a) {
+                const float* rq = r[active[a]].data() + g.index(q, 0);
+                float* zq = z[active[a]].data() + g.index(q, 0);
+                for (int32_t k = 0; k < grid_size; ++k) u[k] = scale[k] * rq[k];
+                solve_rows(m.of(q, 0), n, u.data());
+                solve_columns(m.of(q, 1), n, u.data());
+                for (int32_t k = 0; k < grid_size; ++k) zq[k] = scale[k] * u[k];
+                if (dots)
+                    parts.quad(a, q) = own_dot(rq, zq, s.shared.data() + q * grid_size, grid_size);
+                float* stash = products.data() + a * shared;
+                for (int32_t i = s.offsets[q]; i < s.offsets[q + 1]; ++i) stash[i] = zq[s.k[i]];
+            }
+        }
+    });
+    const auto groups = static_cast<int64_t>(g.offsets.size()) - 1;
+    parallel_for(
+        groups,
+        [&](int64_t begin, int64_t end) {
+            for (size_t a = 0; a < count; ++a) {
+                const float* rc = r[active[a]].data();
+                float* zc = z[active[a]].data();
+                const float* stash = products.data() + a * shared;
+                for (int64_t i = begin; i < end; ++i) {
+                    float total = 0;
+                    for (int32_t j = g.offsets[i]; j < g.offsets[i + 1]; ++j)
+                        total += stash[g.stashed[j]];
+                    for (int32_t j = g.offsets[i]; j < g.offsets[i + 1]; ++j) zc[g.copy[j]] = total;
+                    if (dots) parts.group(a, i) = double{rc[g.copy[g.offsets[i]]]} * total;
+                }
+            }
+        },
+        1024);
+    if (dots) parts.sum(*dots);
 }
 
 double dot(const std::vector<float>& a, const std::vector<float>& b,

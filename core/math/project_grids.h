@@ -25,7 +25,8 @@ struct NormalMatrix {
 
     float* entry(size_t q, int e) { return stencil.get() + (q * 9 + e) * grid_size; }
     const float* entry(size_t q, int e) const { return stencil.get() + (q * 9 + e) * grid_size; }
-    double alpha = 0;  // alpha u
+    double alpha = 0;             // alpha u
+    std::vector<int64_t> pixels;  // per quad, the pixels it renders
 };
 
 constexpr int stencil_entry(int dr, int dc) { return (dr + 1) * 3 + (dc + 1); }
@@ -77,8 +78,48 @@ void from_local(const NormalMatrix& A, const LocalGrids& g, const std::vector<fl
 // gets y = alpha u x + its product at once; a shared node's product waits in `products`, and its
 // copies then get alpha u x plus the products of all its quads, added in quad order, so that every
 // sum is made in the same order whatever the thread count.
+// With `dots`, also x_c . y_c per active channel, each sample counted once: summed per quad (its
+// own nodes) and per shared sample, then in that order, so the same whatever the thread count.
 void multiply(const NormalMatrix& A, const SharedNodes& s, const LocalGrids& g, const Planes& x,
-              Planes& y, const std::vector<int>& active, std::vector<float>& products);
+              Planes& y, const std::vector<int>& active, std::vector<float>& products,
+              std::vector<double>* dots = nullptr);
+
+// A block preconditioner with the quads as blocks (additive Schwarz, the quads overlapping on their
+// shared border nodes): on each quad the Jacobi-scaled stencil is approximated by a product of two
+// tridiagonal matrices with constant coefficients, one along the rows and one along the columns,
+//     D^(-1/2) A_q D^(-1/2)  ~  (T_x + eps I) (x) (T_y + eps I),   T = tridiag(a, 1, a),
+// with a the quad's mean scaled coupling to its horizontal (vertical) neighbours and eps the square
+// root of the damping's part of the diagonal. A quad with more than 1.4 cells a pixel keeps the
+// diagonal alone (Jacobi): the data term there is no longer a smooth blur (samples outnumber the
+// pixels, many see one or none), and Jacobi converges in a few iterations (Kodak at 1.5 and 2
+// samples a pixel: above 60 dB after 4 iterations, where the line solves needed 6 to 8). Rendering
+// about a pixel apart blurs like [1 2 1] / 4 along each axis, whose normal matrix is nearly
+// singular at the highest frequencies, where Jacobi leaves the conjugate gradients to find them one
+// by one; the two line solves invert that blur. z = sum over quads q of S_q M_q^-1 S_q r, S_q =
+// D^(-1/2) / sqrt(copies) on q's grid: symmetric, positive definite, and the same at every copy of
+// a shared node.
+struct LinePreconditioner {
+    int32_t side = 0;
+    std::vector<float> scale;  // per local-grid index: D^(-1/2) / sqrt(copies), 0 in the margins
+    // Per quad and direction (0: along a row, 1: along a column): the coupling a, then the LDL^T
+    // factors of tridiag(a, 1 + eps, a) of size side: side multipliers and side inverse pivots.
+    std::vector<float> factors;  // per quad: 2 x (1 + 2 side)
+
+    const float* of(size_t q, int direction) const {
+        return factors.data() + (q * 2 + direction) * (1 + 2 * static_cast<size_t>(side));
+    }
+};
+
+// The preconditioner of A (its stencils and diagonal) on these grids.
+LinePreconditioner make_line_preconditioner(const NormalMatrix& A, const LocalGrids& g);
+
+// z_c = M^-1 r_c for the channels in `active`, the quads shared among the cores; shared nodes are
+// summed over their copies in quad order, so the result does not depend on the thread count.
+// `dots` as multiply's, of r and z.
+void precondition(const NormalMatrix& A, const SharedNodes& s, const LocalGrids& g,
+                  const LinePreconditioner& m, const Planes& r, Planes& z,
+                  const std::vector<int>& active, std::vector<float>& products,
+                  std::vector<double>* dots = nullptr);
 
 // The solver's vector kernels. The reductions keep four partial sums (k mod 4), so that a loop is
 // not bound by the latency of one double accumulator; the order, and so the result, is fixed.
@@ -97,6 +138,11 @@ struct VectorKernels {
                                               const float* owner, size_t n);
     // The next search direction: p = r / d + beta p.
     void (*next_direction)(float beta, const float* r, const float* inverse, float* p, size_t n);
+    // The same step for another preconditioner, which gives z afterwards: returns r.r alone.
+    double (*step_residual)(float step, float* x, float* r, const float* p, const float* ap,
+                            const float* owner, size_t n);
+    // p = z + beta p.
+    void (*next_direction_from)(float beta, const float* z, float* p, size_t n);
 };
 
 const VectorKernels& baseline_kernels();
