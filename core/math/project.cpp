@@ -265,7 +265,9 @@ void Solver::solve(double smoothness, Projection& result) {
     // r.z and p = z + beta p read r; the line preconditioner writes z where A p was (no longer
     // needed once x and r have stepped). The products p.Ap and r.z come with the passes that make
     // Ap and z.
-    const bool lines = o_.preconditioner == Preconditioner::lines;
+    detail::LinePreconditioner lp;
+    if (o_.preconditioner == Preconditioner::lines) lp = detail::make_line_preconditioner(A_, g);
+    const bool lines = lp.any;  // where every quad keeps Jacobi, the Jacobi path is cheaper
     std::vector<float> inverse(size, 0.0f);  // 0 in the margins, which stay 0
     for (size_t q = 0; q < A_.quads; ++q) {
         for (int32_t k = 0; k < A_.grid_size; ++k) {
@@ -273,8 +275,6 @@ void Solver::solve(double smoothness, Projection& result) {
                 static_cast<float>(1.0 / A_.diagonal[A_.grid[q * A_.grid_size + k]]);
         }
     }
-    detail::LinePreconditioner lp;
-    if (lines) lp = detail::make_line_preconditioner(A_, g);
     Planes x(channels), r(channels, std::vector<float>(size, 0.0f)), p = r, Ap = r;
     for (int c = 0; c < channels; ++c) to_local(A_, g, result.planes[c], x[c]);
     std::vector<int> all(channels);

@@ -365,14 +365,16 @@ LinePreconditioner make_line_preconditioner(const NormalMatrix& A, const LocalGr
             m.scale[g.copy[j]] *= static_cast<float>(1.0 / std::sqrt(copies));
     }
     m.factors.resize(A.quads * 2 * (1 + 2 * static_cast<size_t>(n)));
+    m.solves.assign(A.quads, 0);
     parallel_for(static_cast<int64_t>(A.quads), [&](int64_t begin, int64_t end) {
         for (auto q = static_cast<size_t>(begin); q < static_cast<size_t>(end); ++q) {
+            const int64_t cells = int64_t{n - 1} * (n - 1);
+            if (static_cast<double>(cells) > kLinesUpTo * A.pixels[q]) continue;  // Jacobi
+            m.solves[q] = 1;
             const int32_t* ids = A.grid + q * A.grid_size;
             double damping = 0;
             for (int32_t k = 0; k < A.grid_size; ++k) damping += A.alpha / A.diagonal[ids[k]];
             const double eps = std::sqrt(damping / A.grid_size);
-            const int64_t cells = int64_t{n - 1} * (n - 1);
-            const bool jacobi = static_cast<double>(cells) > kLinesUpTo * A.pixels[q];
             for (int direction = 0; direction < 2; ++direction) {
                 const int32_t step = direction == 0 ? 1 : n;
                 const float* coupling =
@@ -388,9 +390,8 @@ LinePreconditioner make_line_preconditioner(const NormalMatrix& A, const LocalGr
                         ++count;
                     }
                 }
-                const double a =
-                    jacobi ? 0.0 : std::clamp(count > 0 ? sum / count : 0.0, -0.5, 0.5);
-                const double diagonal = jacobi ? 1.0 : 1 + eps;
+                const double a = std::clamp(count > 0 ? sum / count : 0.0, -0.5, 0.5);
+                const double diagonal = 1 + eps;
                 float* f =
                     m.factors.data() + (q * 2 + direction) * (1 + 2 * static_cast<size_t>(n));
                 float* multiplier = f + 1;
@@ -408,6 +409,7 @@ LinePreconditioner make_line_preconditioner(const NormalMatrix& A, const LocalGr
             }
         }
     });
+    m.any = std::find(m.solves.begin(), m.solves.end(), 1) != m.solves.end();
     return m;
 }
 
@@ -465,10 +467,14 @@ void precondition(const NormalMatrix& A, const SharedNodes& s, const LocalGrids&
             for (size_t a = 0; a < count; ++a) {
                 const float* rq = r[active[a]].data() + g.index(q, 0);
                 float* zq = z[active[a]].data() + g.index(q, 0);
-                for (int32_t k = 0; k < grid_size; ++k) u[k] = scale[k] * rq[k];
-                solve_rows(m.of(q, 0), n, u.data());
-                solve_columns(m.of(q, 1), n, u.data());
-                for (int32_t k = 0; k < grid_size; ++k) zq[k] = scale[k] * u[k];
+                if (m.solves[q]) {
+                    for (int32_t k = 0; k < grid_size; ++k) u[k] = scale[k] * rq[k];
+                    solve_rows(m.of(q, 0), n, u.data());
+                    solve_columns(m.of(q, 1), n, u.data());
+                    for (int32_t k = 0; k < grid_size; ++k) zq[k] = scale[k] * u[k];
+                } else {
+                    for (int32_t k = 0; k < grid_size; ++k) zq[k] = scale[k] * (scale[k] * rq[k]);
+                }
                 if (dots)
                     parts.quad(a, q) = own_dot(rq, zq, s.shared.data() + q * grid_size, grid_size);
                 float* stash = products.data() + a * shared;

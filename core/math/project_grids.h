@@ -103,7 +103,9 @@ struct LinePreconditioner {
     std::vector<float> scale;  // per local-grid index: D^(-1/2) / sqrt(copies), 0 in the margins
     // Per quad and direction (0: along a row, 1: along a column): the coupling a, then the LDL^T
     // factors of tridiag(a, 1 + eps, a) of size side: side multipliers and side inverse pivots.
-    std::vector<float> factors;  // per quad: 2 x (1 + 2 side)
+    std::vector<float> factors;   // per quad: 2 x (1 + 2 side)
+    std::vector<uint8_t> solves;  // per quad: 1 where the line solves run, 0 where Jacobi's does
+    bool any = false;             // some quad runs the line solves
 
     const float* of(size_t q, int direction) const {
         return factors.data() + (q * 2 + direction) * (1 + 2 * static_cast<size_t>(side));
