@@ -1,6 +1,5 @@
 // The tesswave command: one subcommand per job, thin over the libraries. Errors become one line
 // on stderr and a non-zero exit code.
-#include <malloc.h>
 #include <signal.h>
 #include <unistd.h>
 
@@ -17,6 +16,7 @@
 #include "cli.h"
 #include "core/io/file_io.h"
 #include "core/math/error.h"
+#include "core/math/heap.h"
 #include "core/math/parallel.h"
 #include "core/math/strings.h"
 
@@ -151,11 +151,7 @@ void check_command_name(const CLI::App& app, int argc, char** argv, int from) {
 }  // namespace
 
 int main(int argc, char** argv) {
-    // Frames, planes and images (megabytes each) are allocated and freed again for every frame:
-    // keep them in the heap rather than mapping them afresh and faulting their pages in each time.
-    // A 30-frame face morph spent 1.3 s of its 5 s of CPU in the kernel that way, 0.35 s with this.
-    mallopt(M_MMAP_THRESHOLD, 32 << 20);  // glibc's largest
-    mallopt(M_TRIM_THRESHOLD, 1 << 30);
+    tesswave::keep_freed_blocks();
     CLI::App app{
         "tesswave: images on deformable planar tessellations, analysed with the lifted bilinear "
         "wavelet transform (Bertram et al., \"Wavelets on Planar Tesselations\")."};
