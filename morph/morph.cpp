@@ -339,39 +339,52 @@ void Morph::add_residuals(const RenderPlan& plan, double t, int side, Image& out
     const int J = levels();
     const Schedule& s = options_.schedule;
     const float x = static_cast<float>(s.band_weight(J, J + 1, t));
-    // Where each output pixel comes from in A and in B: the mesh map, rendered.
-    std::vector<std::vector<float>> warped_residual[2];
-    for (int k = 0; k < 2; ++k) {
-        if (side >= 0 && k != side) continue;
-        const auto& position = k == 0 ? position_a_ : position_b_;
-        std::vector<std::span<const float>> in(position.begin(), position.end());
-        const Image from = render(plan, in, SampleFormat::f32);
-        std::vector<Vec2> p(from.planes[0].size());
-        for (size_t i = 0; i < p.size(); ++i) p[i] = {from.planes[0][i], from.planes[1][i]};
-        warped_residual[k] = sample_bilinear(k == 0 ? residual_a_ : residual_b_, p);
-    }
+    // The residuals warped to the frame: each pixel's place in A and in B (the mesh map,
+    // rendered) read bilinearly, in one pass over the plan. With both sides, the aware schedule's
+    // local energies and inner product (summed over channels) come with it.
+    const int channels = out.channels();
+    const size_t n = out.planes[0].size();
+    auto plane = [](const std::vector<float>& v) { return std::span<const float>(v); };
     if (side >= 0) {  // one endpoint alone
-        for (int c = 0; c < out.channels(); ++c) {
-            for (size_t i = 0; i < out.planes[c].size(); ++i) {
-                out.planes[c][i] += warped_residual[side][c][i];
-            }
-        }
+        const auto& position = side == 0 ? position_a_ : position_b_;
+        const Image& residual = side == 0 ? residual_a_ : residual_b_;
+        render_each<2>(
+            plan, {plane(position[0]), plane(position[1])},
+            [&](int32_t px, const std::array<float, 2>& at) {
+                const Tap tp = bilinear_tap(residual.width, residual.height, 1.0, {at[0], at[1]});
+                for (int c = 0; c < channels; ++c)
+                    out.planes[c][px] += bilinear_at(tp, residual.planes[c].data());
+            });
         return;
     }
-    const auto& ra = warped_residual[0];
-    const auto& rb = warped_residual[1];
-    if (s.kind == ScheduleKind::aware) {
-        // The finest band, per pixel: local energies and inner product over a 7x7 window.
-        const size_t n = out.planes[0].size();
-        cv::Mat local[3];
+    const bool aware = s.kind == ScheduleKind::aware;
+    std::vector<std::vector<float>> ra(channels, std::vector<float>(n)), rb = ra;
+    cv::Mat local[3];
+    if (aware) {
         for (cv::Mat& m : local) m = cv::Mat::zeros(out.height, out.width, CV_32F);
-        for (int c = 0; c < out.channels(); ++c) {
-            for (size_t i = 0; i < n; ++i) {
-                local[0].ptr<float>()[i] += ra[c][i] * ra[c][i];
-                local[1].ptr<float>()[i] += rb[c][i] * rb[c][i];
-                local[2].ptr<float>()[i] += ra[c][i] * rb[c][i];
+    }
+    render_each<4>(
+        plan,
+        {plane(position_a_[0]), plane(position_a_[1]), plane(position_b_[0]),
+         plane(position_b_[1])},
+        [&](int32_t px, const std::array<float, 4>& at) {
+            const Tap ta = bilinear_tap(residual_a_.width, residual_a_.height, 1.0, {at[0], at[1]});
+            const Tap tb = bilinear_tap(residual_b_.width, residual_b_.height, 1.0, {at[2], at[3]});
+            float aa = 0, bb = 0, ab = 0;
+            for (int c = 0; c < channels; ++c) {
+                const float a = bilinear_at(ta, residual_a_.planes[c].data());
+                const float b = bilinear_at(tb, residual_b_.planes[c].data());
+                ra[c][px] = a, rb[c][px] = b;
+                aa += a * a, bb += b * b, ab += a * b;
             }
-        }
+            if (aware) {
+                local[0].ptr<float>()[px] = aa;
+                local[1].ptr<float>()[px] = bb;
+                local[2].ptr<float>()[px] = ab;
+            }
+        });
+    if (aware) {
+        // The finest band, per pixel: local energies and inner product over a 7x7 window.
         for (cv::Mat& m : local) cv::boxFilter(m, m, -1, {7, 7});
         const auto [ha, hb] = handover_weights(s.handover(J + 1, J + 2, t), 2.0);
         parallel_for(

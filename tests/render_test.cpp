@@ -2,7 +2,9 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstring>
 
 #include "core/math/grid_mesh.h"
 #include "core/math/parallel.h"
@@ -82,6 +84,35 @@ TEST(Render, sampling_then_rendering_a_linear_image_is_exact) {
     const Image out = render(plan, spans);
     for (int y = 3; y < 61 - 3; ++y) {
         for (int x = 3; x < 97 - 3; ++x) ASSERT_NEAR(out.at(0, x, y), ramp.at(0, x, y), 1e-5);
+    }
+}
+
+// render_each hands every pixel, once, the values render() writes there, to the bit.
+TEST(Render, render_each_gives_what_render_writes) {
+    for (const Case& c : cases()) {
+        const Hierarchy h = build_hierarchy(c.mesh, {.levels = 3});
+        const RenderPlan plan = plan_render(h, c.mesh.vertices, 97, 61, 131, 77);
+        std::vector<float> x(h.num_samples(3)), y(x.size());
+        for (size_t k = 0; k < x.size(); ++k) {
+            x[k] = std::sin(0.37f * k) * std::ldexp(1.0f, k % 13 - 6);
+            y[k] = std::cos(0.11f * k);
+        }
+        const std::span<const float> planes[] = {x, y};
+        const Image rendered = render(plan, planes, SampleFormat::f32);
+        std::vector<float> got_x(131 * 77, NAN), got_y = got_x;
+        std::vector<int> calls(131 * 77, 0);
+        set_thread_count(1);  // `calls` is counted without atomics
+        render_each<2>(plan, {std::span<const float>(x), std::span<const float>(y)},
+                       [&](int32_t px, const std::array<float, 2>& v) {
+                           got_x[px] = v[0], got_y[px] = v[1];
+                           ++calls[px];
+                       });
+        set_thread_count(0);
+        EXPECT_EQ(std::count(calls.begin(), calls.end(), 1), 131 * 77) << c.name;
+        EXPECT_EQ(0, std::memcmp(got_x.data(), rendered.planes[0].data(), got_x.size() * 4))
+            << c.name;
+        EXPECT_EQ(0, std::memcmp(got_y.data(), rendered.planes[1].data(), got_y.size() * 4))
+            << c.name;
     }
 }
 

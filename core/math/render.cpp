@@ -181,6 +181,27 @@ void render_quads(const RenderPlan& plan, std::span<const std::span<const float>
 
 }  // namespace
 
+std::vector<size_t> plan_entry_starts(const RenderPlan& plan) {
+    const size_t quads = plan.quad_runs.size() - 1;
+    std::vector<size_t> starts(quads + 1, 0);
+    for (size_t q = 0; q < quads; ++q) {
+        starts[q + 1] = starts[q];
+        for (int32_t run = plan.quad_runs[q]; run < plan.quad_runs[q + 1]; ++run) {
+            starts[q + 1] += static_cast<size_t>(plan.run_length[run]);
+        }
+    }
+    return starts;
+}
+
+void check_render_planes(const RenderPlan& plan, std::span<const std::span<const float>> planes) {
+    for (size_t c = 0; c < planes.size(); ++c) {
+        if (planes[c].size() < static_cast<size_t>(plan.samples)) {
+            throw Error(str("render: plane ", c, " has ", planes[c].size(), " values, level ",
+                            plan.level, " has ", plan.samples, " samples"));
+        }
+    }
+}
+
 void render_into(const RenderPlan& plan, std::span<const std::span<const float>> planes,
                  Image& out) {
     if (out.width != plan.width || out.height != plan.height ||
@@ -189,23 +210,11 @@ void render_into(const RenderPlan& plan, std::span<const std::span<const float>>
                         out.planes.size(), " planes; the plan is ", plan.width, "x", plan.height,
                         " for ", planes.size(), " planes"));
     }
-    for (size_t c = 0; c < planes.size(); ++c) {
-        if (planes[c].size() < static_cast<size_t>(plan.samples)) {
-            throw Error(str("render: plane ", c, " has ", planes[c].size(), " values, level ",
-                            plan.level, " has ", plan.samples, " samples"));
-        }
-    }
+    check_render_planes(plan, planes);
     const size_t channels = planes.size(), quads = plan.quad_runs.size() - 1;
     std::vector<float*> outs(channels);
     for (size_t c = 0; c < channels; ++c) outs[c] = out.planes[c].data();
-    // Where each quad's plan entries start.
-    std::vector<size_t> first_entry(quads + 1, 0);
-    for (size_t q = 0; q < quads; ++q) {
-        first_entry[q + 1] = first_entry[q];
-        for (int32_t run = plan.quad_runs[q]; run < plan.quad_runs[q + 1]; ++run) {
-            first_entry[q + 1] += plan.run_length[run];
-        }
-    }
+    const std::vector<size_t> first_entry = plan_entry_starts(plan);
     // One quad at a time: its grid values of every channel staged side by side, then its pixel
     // runs read their plan entries once and interpolate all channels from the staged grids.
     // Quads own disjoint pixels, so the cores take a share of quads each.

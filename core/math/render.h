@@ -6,12 +6,14 @@
 #pragma once
 
 #include <array>
+#include <cstddef>
 #include <cstdint>
 #include <span>
 #include <vector>
 
 #include "core/math/hierarchy.h"
 #include "core/math/image.h"
+#include "core/math/parallel.h"
 
 namespace tesswave {
 
@@ -51,5 +53,54 @@ Image render(const RenderPlan& plan, std::span<const std::span<const float>> pla
 // The same into an image of the plan's size with one plane per input plane (reused buffers).
 void render_into(const RenderPlan& plan, std::span<const std::span<const float>> planes,
                  Image& out);
+
+// Where each quad's entries start in the plan: quad q's pixel runs read st and cell entries
+// [starts[q], starts[q + 1]).
+std::vector<size_t> plan_entry_starts(const RenderPlan& plan);
+
+// Throws Error unless every plane holds the plan level's samples.
+void check_render_planes(const RenderPlan& plan, std::span<const std::span<const float>> planes);
+
+// Calls f(pixel, values) for every pixel the plan renders, values[c] being what render() gives
+// planes[c] there, to the bit: for callers that use the rendered values at once (a warp through
+// the mesh map) instead of keeping C images of them. The quads are shared among the cores, so f
+// runs concurrently, once for each pixel.
+template <size_t C, class F>
+void render_each(const RenderPlan& plan, const std::array<std::span<const float>, C>& planes,
+                 F&& f) {
+    check_render_planes(plan, planes);
+    const std::vector<size_t> starts = plan_entry_starts(plan);
+    const int32_t side = plan.cells + 1, grid_size = side * side;
+    parallel_for(
+        static_cast<int64_t>(plan.quad_runs.size()) - 1,
+        [&](int64_t begin, int64_t end) {
+            constexpr float kUnit = 1.0f / 65536.0f;
+            std::vector<float> local(static_cast<size_t>(grid_size) * C);
+            std::array<float, C> values;
+            for (int64_t q = begin; q < end; ++q) {
+                const int32_t* ids = plan.grid.data() + q * grid_size;
+                for (size_t c = 0; c < C; ++c) {
+                    const float* x = planes[c].data();
+                    float* g = local.data() + c * grid_size;
+                    for (int32_t k = 0; k < grid_size; ++k) g[k] = x[ids[k]];
+                }
+                size_t i = starts[static_cast<size_t>(q)];
+                for (int32_t run = plan.quad_runs[q]; run < plan.quad_runs[q + 1]; ++run) {
+                    const int32_t start = plan.run_start[run], length = plan.run_length[run];
+                    for (int32_t n = 0; n < length; ++n, ++i) {
+                        const float s = plan.st[i][0] * kUnit, r = plan.st[i][1] * kUnit;
+                        const float* v = local.data() + plan.cell[i];
+                        for (size_t c = 0; c < C; ++c, v += grid_size) {
+                            const float top = v[0] + (v[1] - v[0]) * s;
+                            const float bottom = v[side] + (v[side + 1] - v[side]) * s;
+                            values[c] = top + (bottom - top) * r;
+                        }
+                        f(start + n, values);
+                    }
+                }
+            }
+        },
+        16);
+}
 
 }  // namespace tesswave

@@ -30,23 +30,6 @@ Image half_size(const Image& src) {
     return dst;
 }
 
-// Bilinear weights of one position on a pyramid level, shared by all channels.
-struct Tap {
-    size_t i00, i01, i10, i11;
-    float tx, ty;
-};
-
-inline Tap tap(int w, int h, double inv_size, Vec2 p) {
-    const double fx = std::clamp(p.x * inv_size - 0.5, 0.0, w - 1.0);
-    const double fy = std::clamp(p.y * inv_size - 0.5, 0.0, h - 1.0);
-    const int x0 = std::min(static_cast<int>(fx), std::max(w - 2, 0));
-    const int y0 = std::min(static_cast<int>(fy), std::max(h - 2, 0));
-    const int x1 = std::min(x0 + 1, w - 1), y1 = std::min(y0 + 1, h - 1);
-    return {static_cast<size_t>(y0) * w + x0, static_cast<size_t>(y0) * w + x1,
-            static_cast<size_t>(y1) * w + x0, static_cast<size_t>(y1) * w + x1,
-            static_cast<float>(fx - x0),      static_cast<float>(fy - y0)};
-}
-
 // The pyramid level (fractional: trilinear) that samples cells of `size` pixels (the side of a
 // square of the cell's area), at most `top`: log2 of the size, except that cells up to kNoBlend
 // pixels read the image alone, and the blend with level 1 rises from 0 there to 1 at 2 pixels
@@ -59,12 +42,6 @@ double pyramid_level(double size, int top) {
     if (lod >= 1) return std::min(lod, double(top));
     const double from = std::log2(kNoBlend);
     return lod <= from ? 0.0 : std::min((lod - from) / (1 - from), double(top));
-}
-
-inline float apply(const Tap& t, const float* plane) {
-    const float top = plane[t.i00] + (plane[t.i01] - plane[t.i00]) * t.tx;
-    const float bottom = plane[t.i10] + (plane[t.i11] - plane[t.i10]) * t.tx;
-    return top + (bottom - top) * t.ty;
 }
 
 }  // namespace
@@ -84,12 +61,12 @@ void sample_positions(const Image& image, std::span<const Vec2> positions,
     }
     const int w = image.width, h = image.height;
     for (int64_t i = begin; i < end; ++i) {
-        const Tap t = tap(w, h, 1.0, positions[i]);  // level 0
+        const Tap t = bilinear_tap(w, h, 1.0, positions[i]);  // level 0
         for (int c = 0; c < channels; ++c) {
             if constexpr (C > 0) {
-                to[c][i] = apply(t, in[c]);
+                to[c][i] = bilinear_at(t, in[c]);
             } else {
-                out[c][i] = apply(t, image.planes[c].data());
+                out[c][i] = bilinear_at(t, image.planes[c].data());
             }
         }
     }
@@ -191,15 +168,15 @@ void sample_image_into(const Image& image, const Hierarchy& h, std::span<const V
                 if ((border_row || c == 0 || c == m) && owner[id] != static_cast<int32_t>(p))
                     continue;
                 const Vec2 pos = lerp(left, right, double(c) / m);
-                const Tap ta = tap(a.width, a.height, inv_a, pos);
+                const Tap ta = bilinear_tap(a.width, a.height, inv_a, pos);
                 if (w1 == 0) {
                     for (int ch = 0; ch < channels; ++ch)
-                        out[ch][id] = apply(ta, a.planes[ch].data());
+                        out[ch][id] = bilinear_at(ta, a.planes[ch].data());
                 } else {
-                    const Tap tb = tap(b.width, b.height, inv_b, pos);
+                    const Tap tb = bilinear_tap(b.width, b.height, inv_b, pos);
                     for (int ch = 0; ch < channels; ++ch) {
-                        const float va = apply(ta, a.planes[ch].data());
-                        out[ch][id] = va + (apply(tb, b.planes[ch].data()) - va) * w1;
+                        const float va = bilinear_at(ta, a.planes[ch].data());
+                        out[ch][id] = va + (bilinear_at(tb, b.planes[ch].data()) - va) * w1;
                     }
                 }
             }

@@ -8,6 +8,8 @@
 // thread count.
 #pragma once
 
+#include <algorithm>
+#include <cstddef>
 #include <span>
 #include <vector>
 
@@ -16,6 +18,31 @@
 #include "core/math/image.h"
 
 namespace tesswave {
+
+// Bilinear weights of one position on an image (or a pyramid level of it, inv_size = 2^-level),
+// shared by all channels: the four pixels around it, clamped to the image, and the fractions.
+struct Tap {
+    size_t i00, i01, i10, i11;
+    float tx, ty;
+};
+
+inline Tap bilinear_tap(int w, int h, double inv_size, Vec2 p) {
+    const double fx = std::clamp(p.x * inv_size - 0.5, 0.0, w - 1.0);
+    const double fy = std::clamp(p.y * inv_size - 0.5, 0.0, h - 1.0);
+    const int x0 = std::min(static_cast<int>(fx), std::max(w - 2, 0));
+    const int y0 = std::min(static_cast<int>(fy), std::max(h - 2, 0));
+    const int x1 = std::min(x0 + 1, w - 1), y1 = std::min(y0 + 1, h - 1);
+    return {static_cast<size_t>(y0) * w + x0, static_cast<size_t>(y0) * w + x1,
+            static_cast<size_t>(y1) * w + x0, static_cast<size_t>(y1) * w + x1,
+            static_cast<float>(fx - x0),      static_cast<float>(fy - y0)};
+}
+
+// The value of `plane` at the tap, as sample_bilinear gives it.
+inline float bilinear_at(const Tap& t, const float* plane) {
+    const float top = plane[t.i00] + (plane[t.i01] - plane[t.i00]) * t.tx;
+    const float bottom = plane[t.i10] + (plane[t.i11] - plane[t.i10]) * t.tx;
+    return top + (bottom - top) * t.ty;
+}
 
 // Plain bilinear lookups, one plane per image channel, one value per position.
 std::vector<std::vector<float>> sample_bilinear(const Image& image,
