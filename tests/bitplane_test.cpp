@@ -221,6 +221,49 @@ void expect_requantize_equals_the_two_steps(const CodingLayout& layout) {
     }
 }
 
+// dequantize (branch-free, in bit operations) gives the bits of the plain formula: 0 for 0, else
+// (v < 0 ? -m : m) * step with m = |v| + 3/8 of 2^known (no 3/8 for an exact coefficient known to
+// plane 0), for every known plane, both signs, large magnitudes and steps of either sign.
+TEST(Bitplane, dequantize_gives_the_plain_formula) {
+    for (const GridRelations relations : {GridRelations::computed, GridRelations::listed}) {
+        const CodingLayout layout = grid_layout(37, 29, 3, GridWavelet::cdf97, false, relations);
+        std::vector<int32_t> value(layout.size);
+        std::vector<uint8_t> known(layout.size);
+        const int32_t magnitudes[] = {0, 1, 2, 3, 7, 1000, 65535, (1 << 24) + 1, (1 << 30) - 1};
+        for (size_t i = 0; i < value.size(); ++i) {
+            const int32_t m = magnitudes[i % 9];
+            value[i] = (i / 9) % 2 ? -m : m;
+            known[i] = m == 0 && i % 4 == 0 ? 32 : static_cast<uint8_t>((i / 18) % 32);
+        }
+        const DecodedPlanes d{.value = {value}, .known = {known}, .complete = true};
+        for (const float base : {0.01f, 2.5f, -0.7f}) {
+            std::vector<float> steps(layout.bands.size());
+            for (size_t b = 0; b < steps.size(); ++b) steps[b] = base * (1.0f + 0.37f * b);
+            for (const bool exact : {false, true}) {
+                std::vector<float> out(layout.size, NAN);
+                dequantize(layout, d, 0, steps, exact, out);
+                for (size_t b = 0; b < layout.bands.size(); ++b) {
+                    for (int32_t k = layout.bands[b].begin; k < layout.bands[b].end; ++k) {
+                        const int32_t id = layout.order[k], v = value[id];
+                        float expected = 0.0f;
+                        if (v != 0) {
+                            const int kp = known[id];
+                            const float half =
+                                (exact && kp == 0) ? 0.0f : 0.375f * static_cast<float>(1u << kp);
+                            const float m = static_cast<float>(std::abs(v)) + half;
+                            expected = (v < 0 ? -m : m) * steps[b];
+                        }
+                        ASSERT_EQ(std::bit_cast<uint32_t>(out[id]),
+                                  std::bit_cast<uint32_t>(expected))
+                            << "v " << v << ", known " << int(known[id]) << ", step " << steps[b]
+                            << (exact ? ", exact" : "");
+                    }
+                }
+            }
+        }
+    }
+}
+
 TEST(Bitplane, requantize_equals_quantize_then_dequantize) {
     for (const GridRelations relations : {GridRelations::computed, GridRelations::listed}) {
         SCOPED_TRACE(relations == GridRelations::computed ? "rectangles" : "listed");

@@ -407,6 +407,13 @@ void CodingDomain::inverse(Planes& x) const {
 void CodingDomain::synthesize(Planes x, std::span<const Vec2> vertices, Image& out,
                               const RenderPlan* plan) const {
     inverse(x);
+    if (!hierarchy_) {  // a fixed grid: the samples are the pixels, handed over as they are
+        out.width = shape_.width;
+        out.height = shape_.height;
+        out.format = shape_.format;
+        out.planes = std::move(x);
+        return;
+    }
     to_image(x, vertices, out, plan);
 }
 
