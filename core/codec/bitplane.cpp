@@ -486,8 +486,21 @@ PlaneCounts count_planes(const CodingLayout& layout, std::span<const std::span<c
     for (size_t c = 0; c < q.size(); ++c) {
         for (size_t b = 0; b < layout.bands.size(); ++b) {
             uint32_t largest = 0;
-            for (int32_t k = layout.bands[b].begin; k < layout.bands[b].end; ++k) {
-                largest = std::max(largest, static_cast<uint32_t>(std::abs(q[c][layout.order[k]])));
+            if (!layout.grid_bands.empty()) {  // rectangles of the Mallat plane, row by row
+                const GridBand& r = layout.grid_bands[b];
+                const int width = r.width;
+                for (int y = r.y0; y < r.y0 + r.height; ++y) {
+                    const int32_t* row =
+                        q[c].data() + static_cast<size_t>(y) * layout.grid_width + r.x0;
+                    for (int i = 0; i < width; ++i) {
+                        largest = std::max(largest, static_cast<uint32_t>(std::abs(row[i])));
+                    }
+                }
+            } else {
+                for (int32_t k = layout.bands[b].begin; k < layout.bands[b].end; ++k) {
+                    largest =
+                        std::max(largest, static_cast<uint32_t>(std::abs(q[c][layout.order[k]])));
+                }
             }
             planes[c][b] = static_cast<uint8_t>(std::bit_width(largest));
         }

@@ -17,17 +17,46 @@ constexpr float kRecon = 0.375f;
 
 }  // namespace
 
+namespace {
+
+// One coefficient of quantize: sign floor(|x| / step), the magnitude computed as |x| times
+// 1 / step and truncated (the floor, as it is not negative). Branch-free so that the rows of a
+// grid's bands vectorize; `bad` is set when the magnitude reaches 1e9 (or x is NaN).
+inline int32_t quantize_one(float x, float inv, int& bad) {
+    const float a = std::abs(x) * inv;
+    const bool ok = a < 1e9f;
+    bad |= !ok;
+    const auto m = static_cast<int32_t>(ok ? a : 0.0f);
+    const int32_t negative = -static_cast<int32_t>(x < 0);  // 0 or -1
+    return (m ^ negative) - negative;
+}
+
+}  // namespace
+
 void quantize(const CodingLayout& layout, std::span<const float> x,
               std::span<const float> band_steps, std::span<int32_t> out) {
+    int bad = 0;
     for (size_t b = 0; b < layout.bands.size(); ++b) {
         const float inv = 1.0f / band_steps[b];
+        if (!layout.grid_bands.empty()) {  // rectangles of the Mallat plane, row by row
+            const GridBand& r = layout.grid_bands[b];
+            for (int y = r.y0; y < r.y0 + r.height; ++y) {
+                const size_t first = static_cast<size_t>(y) * layout.grid_width + r.x0;
+                const float* __restrict in = x.data() + first;
+                int32_t* __restrict to = out.data() + first;
+                const int width = r.width;
+                int row_bad = 0;  // local, so that the loop's bound cannot change under it
+                for (int i = 0; i < width; ++i) to[i] = quantize_one(in[i], inv, row_bad);
+                bad |= row_bad;
+            }
+            continue;
+        }
         for (int32_t k = layout.bands[b].begin; k < layout.bands[b].end; ++k) {
             const int32_t id = layout.order[k];
-            const float m = std::floor(std::abs(x[id]) * inv);
-            if (!(m < 1e9f)) throw Error("quantizer step too small for these values");
-            out[id] = x[id] < 0 ? -static_cast<int32_t>(m) : static_cast<int32_t>(m);
+            out[id] = quantize_one(x[id], inv, bad);
         }
     }
+    if (bad) throw Error("quantizer step too small for these values");
 }
 
 namespace {
