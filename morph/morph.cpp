@@ -344,17 +344,15 @@ void Morph::add_residuals(const RenderPlan& plan, double t, int side, Image& out
     // local energies and inner product (summed over channels) come with it.
     const int channels = out.channels();
     const size_t n = out.planes[0].size();
-    auto plane = [](const std::vector<float>& v) { return std::span<const float>(v); };
     if (side >= 0) {  // one endpoint alone
         const auto& position = side == 0 ? position_a_ : position_b_;
         const Image& residual = side == 0 ? residual_a_ : residual_b_;
-        render_each<2>(
-            plan, {plane(position[0]), plane(position[1])},
-            [&](int32_t px, const std::array<float, 2>& at) {
-                const Tap tp = bilinear_tap(residual.width, residual.height, 1.0, {at[0], at[1]});
-                for (int c = 0; c < channels; ++c)
-                    out.planes[c][px] += bilinear_at(tp, residual.planes[c].data());
-            });
+        const std::span<const float> at_side[] = {position[0], position[1]};
+        render_each<2>(plan, at_side, [&](int32_t px, const float* at) {
+            const Tap tp = bilinear_tap(residual.width, residual.height, 1.0, {at[0], at[1]});
+            for (int c = 0; c < channels; ++c)
+                out.planes[c][px] += bilinear_at(tp, residual.planes[c].data());
+        });
         return;
     }
     const bool aware = s.kind == ScheduleKind::aware;
@@ -363,26 +361,24 @@ void Morph::add_residuals(const RenderPlan& plan, double t, int side, Image& out
     if (aware) {
         for (cv::Mat& m : local) m = cv::Mat::zeros(out.height, out.width, CV_32F);
     }
-    render_each<4>(
-        plan,
-        {plane(position_a_[0]), plane(position_a_[1]), plane(position_b_[0]),
-         plane(position_b_[1])},
-        [&](int32_t px, const std::array<float, 4>& at) {
-            const Tap ta = bilinear_tap(residual_a_.width, residual_a_.height, 1.0, {at[0], at[1]});
-            const Tap tb = bilinear_tap(residual_b_.width, residual_b_.height, 1.0, {at[2], at[3]});
-            float aa = 0, bb = 0, ab = 0;
-            for (int c = 0; c < channels; ++c) {
-                const float a = bilinear_at(ta, residual_a_.planes[c].data());
-                const float b = bilinear_at(tb, residual_b_.planes[c].data());
-                ra[c][px] = a, rb[c][px] = b;
-                aa += a * a, bb += b * b, ab += a * b;
-            }
-            if (aware) {
-                local[0].ptr<float>()[px] = aa;
-                local[1].ptr<float>()[px] = bb;
-                local[2].ptr<float>()[px] = ab;
-            }
-        });
+    const std::span<const float> at_both[] = {position_a_[0], position_a_[1], position_b_[0],
+                                              position_b_[1]};
+    render_each<4>(plan, at_both, [&](int32_t px, const float* at) {
+        const Tap ta = bilinear_tap(residual_a_.width, residual_a_.height, 1.0, {at[0], at[1]});
+        const Tap tb = bilinear_tap(residual_b_.width, residual_b_.height, 1.0, {at[2], at[3]});
+        float aa = 0, bb = 0, ab = 0;
+        for (int c = 0; c < channels; ++c) {
+            const float a = bilinear_at(ta, residual_a_.planes[c].data());
+            const float b = bilinear_at(tb, residual_b_.planes[c].data());
+            ra[c][px] = a, rb[c][px] = b;
+            aa += a * a, bb += b * b, ab += a * b;
+        }
+        if (aware) {
+            local[0].ptr<float>()[px] = aa;
+            local[1].ptr<float>()[px] = bb;
+            local[2].ptr<float>()[px] = ab;
+        }
+    });
     if (aware) {
         // The finest band, per pixel: local energies and inner product over a 7x7 window.
         for (cv::Mat& m : local) cv::boxFilter(m, m, -1, {7, 7});

@@ -87,7 +87,8 @@ TEST(Render, sampling_then_rendering_a_linear_image_is_exact) {
     }
 }
 
-// render_each hands every pixel, once, the values render() writes there, to the bit.
+// render_each (render_into is made of it) hands every pixel, once, the values render() writes
+// there, to the bit.
 TEST(Render, render_each_gives_what_render_writes) {
     for (const Case& c : cases()) {
         const Hierarchy h = build_hierarchy(c.mesh, {.levels = 3});
@@ -102,11 +103,10 @@ TEST(Render, render_each_gives_what_render_writes) {
         std::vector<float> got_x(131 * 77, NAN), got_y = got_x;
         std::vector<int> calls(131 * 77, 0);
         set_thread_count(1);  // `calls` is counted without atomics
-        render_each<2>(plan, {std::span<const float>(x), std::span<const float>(y)},
-                       [&](int32_t px, const std::array<float, 2>& v) {
-                           got_x[px] = v[0], got_y[px] = v[1];
-                           ++calls[px];
-                       });
+        render_each<2>(plan, planes, [&](int32_t px, const float* v) {
+            got_x[px] = v[0], got_y[px] = v[1];
+            ++calls[px];
+        });
         set_thread_count(0);
         EXPECT_EQ(std::count(calls.begin(), calls.end(), 1), 131 * 77) << c.name;
         EXPECT_EQ(0, std::memcmp(got_x.data(), rendered.planes[0].data(), got_x.size() * 4))

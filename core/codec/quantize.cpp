@@ -15,9 +15,19 @@ namespace {
 // the usual JPEG 2000 choice; measured +0.05 dB over 0.5 on Kodak).
 constexpr float kRecon = 0.375f;
 
-}  // namespace
-
-namespace {
+// Calls row(first, width) for every row of band b where the layout is a grid's (its bands are
+// rectangles of the Mallat plane: each row's coefficients lie side by side, so the row loops
+// vectorize), else one(id) for each of its coefficients in coding order.
+template <class Row, class One>
+void for_band(const CodingLayout& layout, size_t b, Row&& row, One&& one) {
+    if (!layout.grid_bands.empty()) {
+        const GridBand& r = layout.grid_bands[b];
+        for (int y = r.y0; y < r.y0 + r.height; ++y)
+            row(static_cast<size_t>(y) * layout.grid_width + r.x0, r.width);
+        return;
+    }
+    for (int32_t k = layout.bands[b].begin; k < layout.bands[b].end; ++k) one(layout.order[k]);
+}
 
 // One coefficient of quantize: sign floor(|x| / step), the magnitude computed as |x| times
 // 1 / step and truncated (the floor, as it is not negative). Branch-free so that the rows of a
@@ -38,23 +48,16 @@ void quantize(const CodingLayout& layout, std::span<const float> x,
     int bad = 0;
     for (size_t b = 0; b < layout.bands.size(); ++b) {
         const float inv = 1.0f / band_steps[b];
-        if (!layout.grid_bands.empty()) {  // rectangles of the Mallat plane, row by row
-            const GridBand& r = layout.grid_bands[b];
-            for (int y = r.y0; y < r.y0 + r.height; ++y) {
-                const size_t first = static_cast<size_t>(y) * layout.grid_width + r.x0;
+        for_band(
+            layout, b,
+            [&](size_t first, int width) {
                 const float* __restrict in = x.data() + first;
                 int32_t* __restrict to = out.data() + first;
-                const int width = r.width;
                 int row_bad = 0;  // local, so that the loop's bound cannot change under it
                 for (int i = 0; i < width; ++i) to[i] = quantize_one(in[i], inv, row_bad);
                 bad |= row_bad;
-            }
-            continue;
-        }
-        for (int32_t k = layout.bands[b].begin; k < layout.bands[b].end; ++k) {
-            const int32_t id = layout.order[k];
-            out[id] = quantize_one(x[id], inv, bad);
-        }
+            },
+            [&](int32_t id) { out[id] = quantize_one(x[id], inv, bad); });
     }
     if (bad) throw Error("quantizer step too small for these values");
 }
@@ -84,21 +87,15 @@ void dequantize_bands(const CodingLayout& layout, const int32_t* value, const ui
                       std::span<const float> band_steps, float* out) {
     for (size_t b = 0; b < layout.bands.size(); ++b) {
         const float step = band_steps[b];
-        if (!layout.grid_bands.empty()) {  // rectangles of the Mallat plane, row by row
-            const GridBand& r = layout.grid_bands[b];
-            for (int y = r.y0; y < r.y0 + r.height; ++y) {
-                const size_t first = static_cast<size_t>(y) * layout.grid_width + r.x0;
+        for_band(
+            layout, b,
+            [&](size_t first, int width) {
                 const int32_t* __restrict v = value + first;
                 const uint8_t* __restrict kp = known + first;
                 float* __restrict to = out + first;
-                for (int i = 0; i < r.width; ++i) to[i] = dequantize_one<kExact>(v[i], kp[i], step);
-            }
-            continue;
-        }
-        for (int32_t k = layout.bands[b].begin; k < layout.bands[b].end; ++k) {
-            const int32_t id = layout.order[k];
-            out[id] = dequantize_one<kExact>(value[id], known[id], step);
-        }
+                for (int i = 0; i < width; ++i) to[i] = dequantize_one<kExact>(v[i], kp[i], step);
+            },
+            [&](int32_t id) { out[id] = dequantize_one<kExact>(value[id], known[id], step); });
     }
 }
 
@@ -137,20 +134,14 @@ void requantize(const CodingLayout& layout, std::span<const float> x,
     int bad = 0;
     for (size_t b = 0; b < layout.bands.size(); ++b) {
         const float step = band_steps[b], inv = 1.0f / step;
-        if (!layout.grid_bands.empty()) {  // rectangles of the Mallat plane, row by row
-            const GridBand& r = layout.grid_bands[b];
-            for (int y = r.y0; y < r.y0 + r.height; ++y) {
-                const size_t first = static_cast<size_t>(y) * layout.grid_width + r.x0;
+        for_band(
+            layout, b,
+            [&](size_t first, int width) {
                 const float* __restrict in = x.data() + first;
                 float* __restrict to = out.data() + first;
-                for (int i = 0; i < r.width; ++i) to[i] = requantize_one(in[i], step, inv, bad);
-            }
-            continue;
-        }
-        for (int32_t k = layout.bands[b].begin; k < layout.bands[b].end; ++k) {
-            const int32_t id = layout.order[k];
-            out[id] = requantize_one(x[id], step, inv, bad);
-        }
+                for (int i = 0; i < width; ++i) to[i] = requantize_one(in[i], step, inv, bad);
+            },
+            [&](int32_t id) { out[id] = requantize_one(x[id], step, inv, bad); });
     }
     if (bad) throw Error("quantizer step too small for these values");
 }

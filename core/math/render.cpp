@@ -129,58 +129,6 @@ Image render(const RenderPlan& plan, std::span<const std::span<const float>> pla
     return out;
 }
 
-namespace {
-
-// Quads [begin, end) of render_into: C channels (0: planes.size(), any count). A fixed count keeps
-// the output pointers in registers and unrolls the channel loop; the arithmetic is the same.
-template <int C>
-void render_quads(const RenderPlan& plan, std::span<const std::span<const float>> planes,
-                  float* const* out_planes, const std::vector<size_t>& first_entry, int64_t begin,
-                  int64_t end) {
-    constexpr float kUnit = 1.0f / 65536.0f;
-    const size_t channels = C > 0 ? C : planes.size();
-    const int32_t side = plan.cells + 1, grid_size = side * side;
-    std::vector<float> local(grid_size * channels);
-    std::array<float*, 4> fixed{};
-    float* const* outs = out_planes;
-    if constexpr (C > 0) {
-        for (int c = 0; c < C; ++c) fixed[c] = out_planes[c];
-        outs = fixed.data();
-    }
-    for (int64_t q = begin; q < end; ++q) {
-        const int32_t* ids = &plan.grid[q * grid_size];
-        for (size_t c = 0; c < channels; ++c) {
-            const float* __restrict x = planes[c].data();
-            float* __restrict g = local.data() + c * grid_size;
-            for (int32_t k = 0; k < grid_size; ++k) g[k] = x[ids[k]];
-        }
-        // The next quad's grid values are fetched into the cache while this quad's pixels are
-        // interpolated: the staging gather above is otherwise most of the time (cache misses).
-        if (q + 1 < end) {
-            const int32_t* next = ids + grid_size;
-            for (size_t c = 0; c < channels; ++c) {
-                const float* x = planes[c].data();
-                for (int32_t k = 0; k < grid_size; ++k) __builtin_prefetch(x + next[k]);
-            }
-        }
-        size_t i = first_entry[q];
-        for (int32_t run = plan.quad_runs[q]; run < plan.quad_runs[q + 1]; ++run) {
-            const int32_t start = plan.run_start[run], length = plan.run_length[run];
-            for (int32_t n = 0; n < length; ++n, ++i) {
-                const float s = plan.st[i][0] * kUnit, r = plan.st[i][1] * kUnit;
-                const float* v = local.data() + plan.cell[i];
-                for (size_t c = 0; c < channels; ++c, v += grid_size) {
-                    const float top = v[0] + (v[1] - v[0]) * s;
-                    const float bottom = v[side] + (v[side + 1] - v[side]) * s;
-                    outs[c][start + n] = top + (bottom - top) * r;
-                }
-            }
-        }
-    }
-}
-
-}  // namespace
-
 std::vector<size_t> plan_entry_starts(const RenderPlan& plan) {
     const size_t quads = plan.quad_runs.size() - 1;
     std::vector<size_t> starts(quads + 1, 0);
@@ -210,22 +158,15 @@ void render_into(const RenderPlan& plan, std::span<const std::span<const float>>
                         out.planes.size(), " planes; the plan is ", plan.width, "x", plan.height,
                         " for ", planes.size(), " planes"));
     }
-    check_render_planes(plan, planes);
-    const size_t channels = planes.size(), quads = plan.quad_runs.size() - 1;
+    const size_t channels = planes.size();
     std::vector<float*> outs(channels);
     for (size_t c = 0; c < channels; ++c) outs[c] = out.planes[c].data();
-    const std::vector<size_t> first_entry = plan_entry_starts(plan);
-    // One quad at a time: its grid values of every channel staged side by side, then its pixel
-    // runs read their plan entries once and interpolate all channels from the staged grids.
-    // Quads own disjoint pixels, so the cores take a share of quads each.
-    parallel_for(
-        static_cast<int64_t>(quads),
-        [&](int64_t begin, int64_t end) {
-            with_channel_count(static_cast<int>(channels), [&]<int C>() {
-                render_quads<C>(plan, planes, outs.data(), first_entry, begin, end);
-            });
-        },
-        16);
+    with_channel_count(static_cast<int>(channels), [&]<int C>() {
+        render_each<C>(plan, planes, [&](int32_t pixel, const float* values) {
+            for (size_t c = 0; c < (C > 0 ? static_cast<size_t>(C) : channels); ++c)
+                outs[c][pixel] = values[c];
+        });
+    });
 }
 
 }  // namespace tesswave

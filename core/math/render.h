@@ -5,7 +5,6 @@
 // sides interpolate the same edge samples.
 #pragma once
 
-#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <span>
@@ -62,27 +61,41 @@ std::vector<size_t> plan_entry_starts(const RenderPlan& plan);
 void check_render_planes(const RenderPlan& plan, std::span<const std::span<const float>> planes);
 
 // Calls f(pixel, values) for every pixel the plan renders, values[c] being what render() gives
-// planes[c] there, to the bit: for callers that use the rendered values at once (a warp through
-// the mesh map) instead of keeping C images of them. The quads are shared among the cores, so f
-// runs concurrently, once for each pixel.
-template <size_t C, class F>
-void render_each(const RenderPlan& plan, const std::array<std::span<const float>, C>& planes,
-                 F&& f) {
+// planes[c] there, to the bit: render_into itself, and callers that use the rendered values at
+// once (a warp through the mesh map) instead of keeping images of them. C is the plane count (0:
+// planes.size(), any; a fixed count unrolls the channel loop). One quad at a time: its grid values
+// of every plane staged side by side (the next quad's asked for meanwhile), then its pixel runs
+// read their plan entries once. The quads are shared among the cores, so f runs concurrently,
+// once for each pixel.
+template <int C, class F>
+void render_each(const RenderPlan& plan, std::span<const std::span<const float>> planes, F&& f) {
     check_render_planes(plan, planes);
     const std::vector<size_t> starts = plan_entry_starts(plan);
     const int32_t side = plan.cells + 1, grid_size = side * side;
+    const size_t channels = C > 0 ? static_cast<size_t>(C) : planes.size();
     parallel_for(
         static_cast<int64_t>(plan.quad_runs.size()) - 1,
         [&](int64_t begin, int64_t end) {
             constexpr float kUnit = 1.0f / 65536.0f;
-            std::vector<float> local(static_cast<size_t>(grid_size) * C);
-            std::array<float, C> values;
+            std::vector<float> local(static_cast<size_t>(grid_size) * channels);
+            std::vector<float> dynamic(C > 0 ? 0 : channels);
+            float fixed[C > 0 ? C : 1];  // a fixed count's values may stay in registers
+            float* values = C > 0 ? fixed : dynamic.data();
             for (int64_t q = begin; q < end; ++q) {
                 const int32_t* ids = plan.grid.data() + q * grid_size;
-                for (size_t c = 0; c < C; ++c) {
-                    const float* x = planes[c].data();
-                    float* g = local.data() + c * grid_size;
+                for (size_t c = 0; c < channels; ++c) {
+                    const float* __restrict x = planes[c].data();
+                    float* __restrict g = local.data() + c * grid_size;
                     for (int32_t k = 0; k < grid_size; ++k) g[k] = x[ids[k]];
+                }
+                // The next quad's grid values are fetched into the cache while this quad's pixels
+                // are interpolated: the staging gather above is otherwise most of the time.
+                if (q + 1 < end) {
+                    const int32_t* next = ids + grid_size;
+                    for (size_t c = 0; c < channels; ++c) {
+                        const float* x = planes[c].data();
+                        for (int32_t k = 0; k < grid_size; ++k) __builtin_prefetch(x + next[k]);
+                    }
                 }
                 size_t i = starts[static_cast<size_t>(q)];
                 for (int32_t run = plan.quad_runs[q]; run < plan.quad_runs[q + 1]; ++run) {
@@ -90,12 +103,13 @@ void render_each(const RenderPlan& plan, const std::array<std::span<const float>
                     for (int32_t n = 0; n < length; ++n, ++i) {
                         const float s = plan.st[i][0] * kUnit, r = plan.st[i][1] * kUnit;
                         const float* v = local.data() + plan.cell[i];
-                        for (size_t c = 0; c < C; ++c, v += grid_size) {
+                        for (size_t c = 0; c < (C > 0 ? static_cast<size_t>(C) : channels);
+                             ++c, v += grid_size) {
                             const float top = v[0] + (v[1] - v[0]) * s;
                             const float bottom = v[side] + (v[side + 1] - v[side]) * s;
                             values[c] = top + (bottom - top) * r;
                         }
-                        f(start + n, values);
+                        f(start + n, static_cast<const float*>(values));
                     }
                 }
             }
