@@ -2,9 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdlib>
 #include <memory>
-#include <string>
 #include <utility>
 
 #include "core/math/error.h"
@@ -267,12 +265,15 @@ void Solver::solve(double smoothness, Projection& result) {
     // Ap and z.
     detail::LinePreconditioner lp;
     if (o_.preconditioner == Preconditioner::lines) lp = detail::make_line_preconditioner(A_, g);
-    const bool lines = lp.any;  // where every quad keeps Jacobi, the Jacobi path is cheaper
-    std::vector<float> inverse(size, 0.0f);  // 0 in the margins, which stay 0
-    for (size_t q = 0; q < A_.quads; ++q) {
-        for (int32_t k = 0; k < A_.grid_size; ++k) {
-            inverse[g.index(q, k)] =
-                static_cast<float>(1.0 / A_.diagonal[A_.grid[q * A_.grid_size + k]]);
+    const bool lines = lp.any;   // where every quad keeps Jacobi, the Jacobi path is cheaper
+    std::vector<float> inverse;  // Jacobi's: 0 in the margins, which stay 0
+    if (!lines) {
+        inverse.assign(size, 0.0f);
+        for (size_t q = 0; q < A_.quads; ++q) {
+            for (int32_t k = 0; k < A_.grid_size; ++k) {
+                inverse[g.index(q, k)] =
+                    static_cast<float>(1.0 / A_.diagonal[A_.grid[q * A_.grid_size + k]]);
+            }
         }
     }
     Planes x(channels), r(channels, std::vector<float>(size, 0.0f)), p = r, Ap = r;
@@ -282,13 +283,16 @@ void Solver::solve(double smoothness, Projection& result) {
     std::vector<float> products;
     multiply(A_, shared_, g, x, Ap, all, products);
     for (int c = 0; c < channels; ++c) {
-        for (size_t k = 0; k < size; ++k) {
-            r[c][k] = b[c][k] - Ap[c][k];
-            p[c][k] = r[c][k] * inverse[k];
+        for (size_t k = 0; k < size; ++k) r[c][k] = b[c][k] - Ap[c][k];
+        if (!lines) {
+            for (size_t k = 0; k < size; ++k) p[c][k] = r[c][k] * inverse[k];
         }
     }
     std::vector<double> rz(channels), norm_b(channels), pAp, rz_lines;
-    if (lines) detail::precondition(A_, shared_, g, lp, r, p, all, products, &rz);
+    if (lines) {
+        detail::precondition(A_, shared_, g, lp, r, p, all, products, &rz_lines);
+        for (size_t a = 0; a < all.size(); ++a) rz[all[a]] = rz_lines[a];
+    }
     std::vector<int> active;
     for (int c = 0; c < channels; ++c) {
         if (!lines) rz[c] = dot(r[c], p[c], owner);
@@ -334,7 +338,7 @@ void Solver::solve(double smoothness, Projection& result) {
             if (relative[a] > o_.tolerance) still.push_back(active[a]);
         }
         active = std::move(still);
-        if (lines && !active.empty()) {
+        if (lines && !active.empty() && result.iterations < o_.max_iterations) {
             Planes& z = Ap;
             detail::precondition(A_, shared_, g, lp, r, z, active, products, &rz_lines);
             parallel_for(static_cast<int64_t>(active.size()), [&](int64_t begin, int64_t end) {

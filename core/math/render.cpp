@@ -141,7 +141,11 @@ std::vector<size_t> plan_entry_starts(const RenderPlan& plan) {
     return starts;
 }
 
-void check_render_planes(const RenderPlan& plan, std::span<const std::span<const float>> planes) {
+void check_render_planes(const RenderPlan& plan, std::span<const std::span<const float>> planes,
+                         int count) {
+    if (count > 0 && planes.size() != static_cast<size_t>(count)) {
+        throw Error(str("render: ", planes.size(), " planes where ", count, " are rendered"));
+    }
     for (size_t c = 0; c < planes.size(); ++c) {
         if (planes[c].size() < static_cast<size_t>(plan.samples)) {
             throw Error(str("render: plane ", c, " has ", planes[c].size(), " values, level ",

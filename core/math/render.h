@@ -57,8 +57,10 @@ void render_into(const RenderPlan& plan, std::span<const std::span<const float>>
 // [starts[q], starts[q + 1]).
 std::vector<size_t> plan_entry_starts(const RenderPlan& plan);
 
-// Throws Error unless every plane holds the plan level's samples.
-void check_render_planes(const RenderPlan& plan, std::span<const std::span<const float>> planes);
+// Throws Error unless every plane holds the plan level's samples, and there are `count` planes
+// (0: any number).
+void check_render_planes(const RenderPlan& plan, std::span<const std::span<const float>> planes,
+                         int count = 0);
 
 // Calls f(pixel, values) for every pixel the plan renders, values[c] being what render() gives
 // planes[c] there, to the bit: render_into itself, and callers that use the rendered values at
@@ -69,7 +71,7 @@ void check_render_planes(const RenderPlan& plan, std::span<const std::span<const
 // once for each pixel.
 template <int C, class F>
 void render_each(const RenderPlan& plan, std::span<const std::span<const float>> planes, F&& f) {
-    check_render_planes(plan, planes);
+    check_render_planes(plan, planes, C);
     const std::vector<size_t> starts = plan_entry_starts(plan);
     const int32_t side = plan.cells + 1, grid_size = side * side;
     const size_t channels = C > 0 ? static_cast<size_t>(C) : planes.size();
