@@ -206,6 +206,33 @@ class OwnedDots {
     std::vector<double> parts_;
 };
 
+// The values of the shared samples after a pass that stashed each copy's part (`products`, one
+// block of s.k.size() a channel): per sample, weight u plus the parts in quad order, written to
+// every copy of out; with `parts`, u times that total at the first copy for the dot products.
+void sum_shared(const LocalGrids& g, const std::vector<int>& active,
+                const std::vector<float>& products, float weight, const Planes& u, Planes& out,
+                OwnedDots* parts) {
+    const size_t stride = g.copy.size();
+    parallel_for(
+        static_cast<int64_t>(g.offsets.size()) - 1,
+        [&](int64_t begin, int64_t end) {
+            for (size_t a = 0; a < active.size(); ++a) {
+                const float* uc = u[active[a]].data();
+                float* oc = out[active[a]].data();
+                const float* stash = products.data() + a * stride;
+                for (int64_t i = begin; i < end; ++i) {
+                    const float first = uc[g.copy[g.offsets[i]]];
+                    float total = weight == 0 ? 0.0f : weight * first;
+                    for (int32_t j = g.offsets[i]; j < g.offsets[i + 1]; ++j)
+                        total += stash[g.stashed[j]];
+                    for (int32_t j = g.offsets[i]; j < g.offsets[i + 1]; ++j) oc[g.copy[j]] = total;
+                    if (parts) parts->group(a, i) = double{first} * total;
+                }
+            }
+        },
+        1024);
+}
+
 }  // namespace
 
 SharedNodes find_shared(const NormalMatrix& A, size_t samples) {
@@ -325,24 +352,7 @@ void multiply(const NormalMatrix& A, const SharedNodes& s, const LocalGrids& g, 
             }
         }
     });
-    const auto groups = static_cast<int64_t>(g.offsets.size()) - 1;
-    parallel_for(
-        groups,
-        [&](int64_t begin, int64_t end) {
-            for (size_t a = 0; a < n; ++a) {
-                const float* xc = x[active[a]].data();
-                float* yc = y[active[a]].data();
-                const float* stash = products.data() + a * shared;
-                for (int64_t i = begin; i < end; ++i) {
-                    float total = alpha * xc[g.copy[g.offsets[i]]];
-                    for (int32_t j = g.offsets[i]; j < g.offsets[i + 1]; ++j)
-                        total += stash[g.stashed[j]];
-                    for (int32_t j = g.offsets[i]; j < g.offsets[i + 1]; ++j) yc[g.copy[j]] = total;
-                    if (dots) parts.group(a, i) = double{xc[g.copy[g.offsets[i]]]} * total;
-                }
-            }
-        },
-        1024);
+    sum_shared(g, active, products, alpha, x, y, dots ? &parts : nullptr);
     if (dots) parts.sum(*dots);
 }
 
@@ -482,24 +492,7 @@ void precondition(const NormalMatrix& A, const SharedNodes& s, const LocalGrids&
             }
         }
     });
-    const auto groups = static_cast<int64_t>(g.offsets.size()) - 1;
-    parallel_for(
-        groups,
-        [&](int64_t begin, int64_t end) {
-            for (size_t a = 0; a < count; ++a) {
-                const float* rc = r[active[a]].data();
-                float* zc = z[active[a]].data();
-                const float* stash = products.data() + a * shared;
-                for (int64_t i = begin; i < end; ++i) {
-                    float total = 0;
-                    for (int32_t j = g.offsets[i]; j < g.offsets[i + 1]; ++j)
-                        total += stash[g.stashed[j]];
-                    for (int32_t j = g.offsets[i]; j < g.offsets[i + 1]; ++j) zc[g.copy[j]] = total;
-                    if (dots) parts.group(a, i) = double{rc[g.copy[g.offsets[i]]]} * total;
-                }
-            }
-        },
-        1024);
+    sum_shared(g, active, products, 0.0f, r, z, dots ? &parts : nullptr);
     if (dots) parts.sum(*dots);
 }
 
