@@ -43,6 +43,50 @@ std::vector<Vec2> scaled(const Mesh& m, double W, double H) {
 // How much detail with local correlation c counts as corresponding: none up to 0.1, all from 0.4.
 double corresponding(double c) { return std::clamp((c - 0.1) / 0.3, 0.0, 1.0); }
 
+// Per pixel, how far the detail of a and b (the same size) agrees: detail is each image minus its
+// 5x5 box mean, and c = max(0, <Da, Db> / (|Da| |Db|)) over the colour channels and a 9x9 window
+// (the definition compare-morph measures a middle frame with, core/eval/peer_morph.h).
+Image detail_agreement(const Image& a, const Image& b) {
+    const int W = a.width, H = a.height;
+    cv::Mat sums[3];  // aa, bb, ab
+    for (cv::Mat& m : sums) m = cv::Mat::zeros(H, W, CV_32F);
+    for (int c = 0; c < std::min(a.channels(), 3); ++c) {
+        cv::Mat detail[2];
+        for (int k = 0; k < 2; ++k) {
+            const Image& im = k == 0 ? a : b;
+            const cv::Mat m(H, W, CV_32F, const_cast<float*>(im.planes[c].data()));
+            cv::Mat mean;
+            cv::blur(m, mean, {5, 5}, {-1, -1}, cv::BORDER_REFLECT);
+            detail[k] = m - mean;
+        }
+        sums[0] += detail[0].mul(detail[0]);
+        sums[1] += detail[1].mul(detail[1]);
+        sums[2] += detail[0].mul(detail[1]);
+    }
+    for (cv::Mat& m : sums) cv::blur(m, m, {9, 9}, {-1, -1}, cv::BORDER_REFLECT);
+    Image out = make_image(W, H, 1, SampleFormat::f32);
+    const float *aa = sums[0].ptr<float>(), *bb = sums[1].ptr<float>(), *ab = sums[2].ptr<float>();
+    for (size_t i = 0; i < out.planes[0].size(); ++i) {
+        const double e = double{aa[i]} * bb[i];
+        out.planes[0][i] =
+            e > 0 ? static_cast<float>(std::clamp(ab[i] / std::sqrt(e), 0.0, 1.0)) : 0;
+    }
+    return out;
+}
+
+// Image b (its pixels) fetched bilinearly at the positions in b of plan's pixels, which the
+// sample planes `at_b` (x, y) give: b warped onto the plan's mesh.
+Image warped_through(const RenderPlan& plan, std::span<const std::span<const float>> at_b,
+                     const Image& b, int width, int height) {
+    Image out = make_image(width, height, b.channels(), SampleFormat::f32);
+    render_each<2>(plan, at_b, [&](int32_t px, const float* at) {
+        const Tap tap = bilinear_tap(b.width, b.height, 1.0, {at[0], at[1]});
+        for (int c = 0; c < b.channels(); ++c)
+            out.planes[c][px] = bilinear_at(tap, b.planes[c].data());
+    });
+    return out;
+}
+
 // The aware schedule's weights of A and B for detail that corresponds to the degree k, with local
 // energies aa and bb and inner product ab, at t: corresponding detail follows t with its energy
 // kept (the gain, at most 2); the rest is handed over with the weights (ha, hb) of its level.
@@ -131,27 +175,38 @@ Morph::Morph(const Image& a, const Image& b, const Mesh& mesh_a, const Mesh& mes
     samples_b_ =
         place_image(with_channels(b, channels), hierarchy_, mesh_b.vertices, options.sampling);
     report(options.progress, 0.5, "residuals");
-    if (options_.residual) {
-        for (int k = 0; k < 2; ++k) {
-            const Image& image = k == 0 ? a : b;
-            const Mesh& mesh = k == 0 ? mesh_a : mesh_b;
-            const auto& samples = k == 0 ? samples_a_ : samples_b_;
-            Image r = with_channels(image, channels);
-            const RenderPlan plan =
-                plan_render(hierarchy_, mesh.vertices, mesh.width, mesh.height, r.width, r.height);
-            std::vector<std::span<const float>> in(samples.begin(), samples.end());
-            const Image back = render(plan, in, SampleFormat::f32);
-            for (int c = 0; c < channels; ++c) {
-                for (size_t i = 0; i < r.planes[c].size(); ++i) r.planes[c][i] -= back.planes[c][i];
-            }
-            auto& position = k == 0 ? position_a_ : position_b_;
-            position.assign(2, {});
+    const bool aware = options_.schedule.kind == ScheduleKind::aware;
+    if (options_.residual || aware) {
+        // The T_J sample positions in each image's pixels: the mesh map, pixel by pixel.
+        for (auto* position : {&position_a_, &position_b_}) {
+            const Mesh& mesh = position == &position_a_ ? mesh_a : mesh_b;
+            position->assign(2, {});
             for (const Vec2& p : refine_positions(hierarchy_, mesh.vertices, J)) {
-                position[0].push_back(static_cast<float>(p.x));
-                position[1].push_back(static_cast<float>(p.y));
+                (*position)[0].push_back(static_cast<float>(p.x));
+                (*position)[1].push_back(static_cast<float>(p.y));
             }
-            (k == 0 ? residual_a_ : residual_b_) = std::move(r);
         }
+    }
+    for (int k = 0; k < 2; ++k) {
+        const Image image = with_channels(k == 0 ? a : b, channels);
+        const Mesh& mesh = k == 0 ? mesh_a : mesh_b;
+        if (!options_.residual && !(aware && k == 0)) continue;
+        const RenderPlan plan = plan_render(hierarchy_, mesh.vertices, mesh.width, mesh.height,
+                                            image.width, image.height);
+        if (aware && k == 0) {
+            const std::span<const float> at_b[] = {position_b_[0], position_b_[1]};
+            agreement_ = detail_agreement(
+                image, warped_through(plan, at_b, with_channels(b, channels), a.width, a.height));
+        }
+        if (!options_.residual) continue;
+        const auto& samples = k == 0 ? samples_a_ : samples_b_;
+        std::vector<std::span<const float>> in(samples.begin(), samples.end());
+        const Image back = render(plan, in, SampleFormat::f32);
+        Image r = image;
+        for (int c = 0; c < channels; ++c) {
+            for (size_t i = 0; i < r.planes[c].size(); ++i) r.planes[c][i] -= back.planes[c][i];
+        }
+        (k == 0 ? residual_a_ : residual_b_) = std::move(r);
     }
     report(options.progress, 0.8, "transforms");
     coeff_a_ = samples_a_;
@@ -250,10 +305,10 @@ void Morph::measure_agreement() {
                     local_a_[i] = static_cast<float>(aa);
                     local_b_[i] = static_cast<float>(bb);
                     local_ab_[i] = static_cast<float>(ab);
-                    // Detail corresponds where it does on its own level, or where this level and
-                    // the two coarser ones correspond taken together: the fine texture of two faces
+                    // Detail corresponds where it does on its own level, where this level and the
+                    // two coarser ones correspond taken together (the fine texture of two faces
                     // does not correlate coefficient by coefficient where the features it sits on
-                    // do.
+                    // do), or where the two images' pixel detail agrees at its place (agreement_).
                     for (const auto& level_sums : coarser) {
                         const std::vector<double>& coarse = level_sums.second;
                         level_sums.first.corners(position[i], [&](size_t k, double w) {
@@ -264,9 +319,12 @@ void Morph::measure_agreement() {
                     }
                     const double pooled =
                         aa > 0 && bb > 0 ? std::clamp(ab / std::sqrt(aa * bb), 0.0, 1.0) : 0.0;
+                    const Tap tap = bilinear_tap(agreement_.width, agreement_.height, 1.0,
+                                                 {position_a_[0][i], position_a_[1][i]});
+                    const float placed = bilinear_at(tap, agreement_.planes[0].data());
                     corresponding_[i] = static_cast<float>(
-                        std::max(corresponding(correspondence(static_cast<int32_t>(i))),
-                                 corresponding(pooled)));
+                        std::max({corresponding(correspondence(static_cast<int32_t>(i))),
+                                  corresponding(pooled), corresponding(placed)}));
                 }
             },
             4096);
@@ -357,9 +415,11 @@ void Morph::add_residuals(const RenderPlan& plan, double t, int side, Image& out
     }
     const bool aware = s.kind == ScheduleKind::aware;
     std::vector<std::vector<float>> ra(channels, std::vector<float>(n)), rb = ra;
-    cv::Mat local[3];
+    cv::Mat local[3];  // aware: the residuals' energies and inner product, then their local sums
+    std::vector<float> agreement;  // aware: the pixel agreement of A and B at each pixel's place
     if (aware) {
         for (cv::Mat& m : local) m = cv::Mat::zeros(out.height, out.width, CV_32F);
+        agreement.resize(n);
     }
     const std::span<const float> at_both[] = {position_a_[0], position_a_[1], position_b_[0],
                                               position_b_[1]};
@@ -377,10 +437,13 @@ void Morph::add_residuals(const RenderPlan& plan, double t, int side, Image& out
             local[0].ptr<float>()[px] = aa;
             local[1].ptr<float>()[px] = bb;
             local[2].ptr<float>()[px] = ab;
+            agreement[px] = bilinear_at(ta, agreement_.planes[0].data());
         }
     });
     if (aware) {
-        // The finest band, per pixel: local energies and inner product over a 7x7 window.
+        // The finest band, per pixel: how far it corresponds is the images' pixel agreement at
+        // its place (the residuals alone, finer than any feature, hardly correlate even where
+        // the images do); its gain comes from local energies over a 7x7 window.
         for (cv::Mat& m : local) cv::boxFilter(m, m, -1, {7, 7});
         const auto [ha, hb] = handover_weights(s.handover(J + 1, J + 2, t), 2.0);
         parallel_for(
@@ -389,10 +452,8 @@ void Morph::add_residuals(const RenderPlan& plan, double t, int side, Image& out
                 for (int64_t i = begin; i < end; ++i) {
                     const double aa = local[0].ptr<float>()[i], bb = local[1].ptr<float>()[i],
                                  ab = local[2].ptr<float>()[i];
-                    const double corr =
-                        aa > 0 && bb > 0 ? std::clamp(ab / std::sqrt(aa * bb), 0.0, 1.0) : 0.0;
-                    const auto [wa, wb] =
-                        aware_weights(corresponding(corr), aa, bb, ab, t, double{ha}, double{hb});
+                    const auto [wa, wb] = aware_weights(corresponding(agreement[i]), aa, bb, ab, t,
+                                                        double{ha}, double{hb});
                     for (int c = 0; c < out.channels(); ++c) {
                         out.planes[c][i] += wa * ra[c][i] + wb * rb[c][i];
                     }

@@ -100,13 +100,16 @@ class Morph {
     std::vector<Vec2> va_, vb_;      // T0 vertices of A and B in output pixels
     Hierarchy hierarchy_, preview_;  // levels J and the preview level
     std::vector<std::vector<float>> samples_a_, samples_b_, coeff_a_, coeff_b_;
-    std::vector<std::vector<double>> energy_a_, energy_b_;     // [channel][detail level]
-    Image residual_a_, residual_b_;                            // image minus its resampling
-    std::vector<std::vector<float>> position_a_, position_b_;  // T_J sample positions (x, y)
+    std::vector<std::vector<double>> energy_a_, energy_b_;  // [channel][detail level]
+    Image residual_a_, residual_b_;                         // image minus its resampling
+    std::vector<std::vector<float>> position_a_,
+        position_b_;  // T_J sample positions (x, y), each image's pixels
     // aware: per detail coefficient, the local energies of A's and B's detail and their inner
     // product (over channels, smoothed over the coefficient's neighbourhood on its level).
     std::vector<float> local_a_, local_b_, local_ab_;
     std::vector<float> corresponding_;  // how far each counts as corresponding, 0..1
+    // aware: per pixel of A, how far A's detail and B's (warped to A) agree (detail_agreement).
+    Image agreement_;
 };
 
 }  // namespace tesswave::morph

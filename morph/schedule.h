@@ -10,7 +10,9 @@
 //           average out (the washed-out middle frame of a plain dissolve).
 //   aware   (the default) ghost-aware: per band and per place, detail that corresponds in A and B
 //           (the two agree after the warp: their local correlation c is near 1, on the band
-//           itself or pooled with the two coarser bands at that place) follows t and keeps its
+//           itself, pooled with the two coarser bands at that place, or in the two images' pixel
+//           detail around that place, B warped to A; the band finer than the mesh takes the
+//           last alone) follows t and keeps its
 //           energy, as in sharp; detail that does not correspond (c near 0) is handed
 //           over on the band's bands-window with both weights squared, (1 - h)^2 and h^2, so
 //           mid-way each image keeps a quarter of its amplitude instead of half: a faint trace,
