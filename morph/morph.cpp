@@ -74,6 +74,24 @@ Image detail_agreement(const Image& a, const Image& b) {
     return out;
 }
 
+// Adds to `agreement` three planes per pixel of A: the local energies of the residuals ra (A's)
+// and rb (B's, warped to A) and their inner product, summed over channels and a 7x7 window: what
+// the residual band's gain in aware_weights needs, measured once in A's pixels.
+void add_residual_energies(Image& agreement, const Image& ra, const Image& rb) {
+    const int W = ra.width, H = ra.height;
+    for (int k = 0; k < 3; ++k) {
+        std::vector<float> sums(static_cast<size_t>(W) * H, 0.0f);
+        for (int c = 0; c < ra.channels(); ++c) {
+            const float* x = (k == 1 ? rb : ra).planes[c].data();
+            const float* y = (k == 0 ? ra : rb).planes[c].data();
+            for (size_t i = 0; i < sums.size(); ++i) sums[i] += x[i] * y[i];
+        }
+        cv::Mat m(H, W, CV_32F, sums.data());
+        cv::boxFilter(m, m, -1, {7, 7});
+        agreement.planes.push_back(std::move(sums));
+    }
+}
+
 // Image b (its pixels) fetched bilinearly at the positions in b of plan's pixels, which the
 // sample planes `at_b` (x, y) give: b warped onto the plan's mesh.
 Image warped_through(const RenderPlan& plan, std::span<const std::span<const float>> at_b,
@@ -187,26 +205,35 @@ Morph::Morph(const Image& a, const Image& b, const Mesh& mesh_a, const Mesh& mes
             }
         }
     }
+    const Image image_a = with_channels(a, channels), image_b = with_channels(b, channels);
+    std::vector<RenderPlan> plan_a;  // aware: A's plan, for warping B to A below
     for (int k = 0; k < 2; ++k) {
-        const Image image = with_channels(k == 0 ? a : b, channels);
-        const Mesh& mesh = k == 0 ? mesh_a : mesh_b;
         if (!options_.residual && !(aware && k == 0)) continue;
-        const RenderPlan plan = plan_render(hierarchy_, mesh.vertices, mesh.width, mesh.height,
-                                            image.width, image.height);
-        if (aware && k == 0) {
-            const std::span<const float> at_b[] = {position_b_[0], position_b_[1]};
-            agreement_ = detail_agreement(
-                image, warped_through(plan, at_b, with_channels(b, channels), a.width, a.height));
+        const Image& image = k == 0 ? image_a : image_b;
+        const Mesh& mesh = k == 0 ? mesh_a : mesh_b;
+        RenderPlan plan = plan_render(hierarchy_, mesh.vertices, mesh.width, mesh.height,
+                                      image.width, image.height);
+        if (options_.residual) {
+            const auto& samples = k == 0 ? samples_a_ : samples_b_;
+            std::vector<std::span<const float>> in(samples.begin(), samples.end());
+            const Image back = render(plan, in, SampleFormat::f32);
+            Image r = image;
+            for (int c = 0; c < channels; ++c) {
+                for (size_t i = 0; i < r.planes[c].size(); ++i) r.planes[c][i] -= back.planes[c][i];
+            }
+            (k == 0 ? residual_a_ : residual_b_) = std::move(r);
         }
-        if (!options_.residual) continue;
-        const auto& samples = k == 0 ? samples_a_ : samples_b_;
-        std::vector<std::span<const float>> in(samples.begin(), samples.end());
-        const Image back = render(plan, in, SampleFormat::f32);
-        Image r = image;
-        for (int c = 0; c < channels; ++c) {
-            for (size_t i = 0; i < r.planes[c].size(); ++i) r.planes[c][i] -= back.planes[c][i];
+        if (aware && k == 0) plan_a.push_back(std::move(plan));
+    }
+    if (aware) {
+        const std::span<const float> at_b[] = {position_b_[0], position_b_[1]};
+        agreement_ = detail_agreement(
+            image_a, warped_through(plan_a[0], at_b, image_b, image_a.width, image_a.height));
+        if (options_.residual) {
+            add_residual_energies(
+                agreement_, residual_a_,
+                warped_through(plan_a[0], at_b, residual_b_, image_a.width, image_a.height));
         }
-        (k == 0 ? residual_a_ : residual_b_) = std::move(r);
     }
     report(options.progress, 0.8, "transforms");
     coeff_a_ = samples_a_;
@@ -398,8 +425,7 @@ void Morph::add_residuals(const RenderPlan& plan, double t, int side, Image& out
     const Schedule& s = options_.schedule;
     const float x = static_cast<float>(s.band_weight(J, J + 1, t));
     // The residuals warped to the frame: each pixel's place in A and in B (the mesh map,
-    // rendered) read bilinearly, in one pass over the plan. With both sides, the aware schedule's
-    // local energies and inner product (summed over channels) come with it.
+    // rendered) read bilinearly, in one pass over the plan.
     const int channels = out.channels();
     const size_t n = out.planes[0].size();
     if (side >= 0) {  // one endpoint alone
@@ -413,69 +439,64 @@ void Morph::add_residuals(const RenderPlan& plan, double t, int side, Image& out
         });
         return;
     }
-    const bool aware = s.kind == ScheduleKind::aware;
-    std::vector<std::vector<float>> ra(channels, std::vector<float>(n)), rb = ra;
-    cv::Mat local[3];  // aware: the residuals' energies and inner product, then their local sums
-    std::vector<float> agreement;  // aware: the pixel agreement of A and B at each pixel's place
-    if (aware) {
-        for (cv::Mat& m : local) m = cv::Mat::zeros(out.height, out.width, CV_32F);
-        agreement.resize(n);
-    }
     const std::span<const float> at_both[] = {position_a_[0], position_a_[1], position_b_[0],
                                               position_b_[1]};
-    render_each<4>(plan, at_both, [&](int32_t px, const float* at) {
-        const Tap ta = bilinear_tap(residual_a_.width, residual_a_.height, 1.0, {at[0], at[1]});
-        const Tap tb = bilinear_tap(residual_b_.width, residual_b_.height, 1.0, {at[2], at[3]});
-        float aa = 0, bb = 0, ab = 0;
-        for (int c = 0; c < channels; ++c) {
-            const float a = bilinear_at(ta, residual_a_.planes[c].data());
-            const float b = bilinear_at(tb, residual_b_.planes[c].data());
-            ra[c][px] = a, rb[c][px] = b;
-            aa += a * a, bb += b * b, ab += a * b;
-        }
-        if (aware) {
-            local[0].ptr<float>()[px] = aa;
-            local[1].ptr<float>()[px] = bb;
-            local[2].ptr<float>()[px] = ab;
-            agreement[px] = bilinear_at(ta, agreement_.planes[0].data());
-        }
-    });
-    if (aware) {
-        // The finest band, per pixel: how far it corresponds is the images' pixel agreement at
-        // its place (the residuals alone, finer than any feature, hardly correlate even where
-        // the images do); its gain comes from local energies over a 7x7 window.
-        for (cv::Mat& m : local) cv::boxFilter(m, m, -1, {7, 7});
+    const auto taps = [&](const float* at) {
+        return std::pair{bilinear_tap(residual_a_.width, residual_a_.height, 1.0, {at[0], at[1]}),
+                         bilinear_tap(residual_b_.width, residual_b_.height, 1.0, {at[2], at[3]})};
+    };
+    if (s.kind == ScheduleKind::aware) {
+        // Per pixel, the weights from the pixel agreement and the residuals' local energies at
+        // its place in A (agreement_, measured once), then the blend: one pass.
         const auto [ha, hb] = handover_weights(s.handover(J + 1, J + 2, t), 2.0);
-        parallel_for(
-            static_cast<int64_t>(n),
-            [&, ha = ha, hb = hb](int64_t begin, int64_t end) {
-                for (int64_t i = begin; i < end; ++i) {
-                    const double aa = local[0].ptr<float>()[i], bb = local[1].ptr<float>()[i],
-                                 ab = local[2].ptr<float>()[i];
-                    const auto [wa, wb] = aware_weights(corresponding(agreement[i]), aa, bb, ab, t,
-                                                        double{ha}, double{hb});
-                    for (int c = 0; c < out.channels(); ++c) {
-                        out.planes[c][i] += wa * ra[c][i] + wb * rb[c][i];
-                    }
-                }
-            },
-            8192);
+        const float tf = static_cast<float>(t), haf = static_cast<float>(ha),
+                    hbf = static_cast<float>(hb);
+        const float* local[4];
+        for (int k = 0; k < 4; ++k) local[k] = agreement_.planes[k].data();
+        render_each<4>(plan, at_both, [&](int32_t px, const float* at) {
+            const auto [ta, tb] = taps(at);
+            const auto [wa, wb] =
+                aware_weights(static_cast<float>(corresponding(bilinear_at(ta, local[0]))),
+                              bilinear_at(ta, local[1]), bilinear_at(ta, local[2]),
+                              bilinear_at(ta, local[3]), tf, haf, hbf);
+            for (int c = 0; c < channels; ++c) {
+                out.planes[c][px] += wa * bilinear_at(ta, residual_a_.planes[c].data()) +
+                                     wb * bilinear_at(tb, residual_b_.planes[c].data());
+            }
+        });
         return;
     }
-    for (int c = 0; c < out.channels(); ++c) {
+    if (s.kind != ScheduleKind::sharp) {  // linear and bands: the finest band's weight
+        render_each<4>(plan, at_both, [&](int32_t px, const float* at) {
+            const auto [ta, tb] = taps(at);
+            for (int c = 0; c < channels; ++c) {
+                out.planes[c][px] += (1 - x) * bilinear_at(ta, residual_a_.planes[c].data()) +
+                                     x * bilinear_at(tb, residual_b_.planes[c].data());
+            }
+        });
+        return;
+    }
+    // sharp: the residual is the finest band, rescaled like the others by energies over the
+    // whole frame, so the warped residuals are kept for a second pass.
+    std::vector<std::vector<float>> ra(channels, std::vector<float>(n)), rb = ra;
+    render_each<4>(plan, at_both, [&](int32_t px, const float* at) {
+        const auto [ta, tb] = taps(at);
+        for (int c = 0; c < channels; ++c) {
+            ra[c][px] = bilinear_at(ta, residual_a_.planes[c].data());
+            rb[c][px] = bilinear_at(tb, residual_b_.planes[c].data());
+        }
+    });
+    for (int c = 0; c < channels; ++c) {
         double ea = 0, eb = 0, e = 0;
-        std::vector<float> blend(out.planes[c].size());
-        for (size_t i = 0; i < blend.size(); ++i) {
-            blend[i] = (1 - x) * ra[c][i] + x * rb[c][i];
+        for (size_t i = 0; i < n; ++i) {
+            const double blend = (1 - x) * ra[c][i] + x * rb[c][i];
             ea += double{ra[c][i]} * ra[c][i];
             eb += double{rb[c][i]} * rb[c][i];
-            e += double{blend[i]} * blend[i];
+            e += blend * blend;
         }
-        // sharp: the residual is the finest band, rescaled like the others.
-        const float gain = s.kind == ScheduleKind::sharp && e > 0
-                               ? static_cast<float>(std::sqrt(((1 - x) * ea + x * eb) / e))
-                               : 1.0f;
-        for (size_t i = 0; i < blend.size(); ++i) out.planes[c][i] += gain * blend[i];
+        const float gain = e > 0 ? static_cast<float>(std::sqrt(((1 - x) * ea + x * eb) / e)) : 1;
+        for (size_t i = 0; i < n; ++i)
+            out.planes[c][i] += gain * ((1 - x) * ra[c][i] + x * rb[c][i]);
     }
 }
 

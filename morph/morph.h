@@ -108,7 +108,9 @@ class Morph {
     // product (over channels, smoothed over the coefficient's neighbourhood on its level).
     std::vector<float> local_a_, local_b_, local_ab_;
     std::vector<float> corresponding_;  // how far each counts as corresponding, 0..1
-    // aware: per pixel of A, how far A's detail and B's (warped to A) agree (detail_agreement).
+    // aware, per pixel of A: plane 0, how far A's detail and B's (warped to A) agree
+    // (detail_agreement); with the residual warp, planes 1 to 3 the residuals' local energies and
+    // inner product (B's warped to A, 7x7 windows), which the residual band's gain needs.
     Image agreement_;
 };
 
