@@ -41,7 +41,10 @@ std::vector<Vec2> scaled(const Mesh& m, double W, double H) {
 }
 
 // How much detail with local correlation c counts as corresponding: none up to 0.1, all from 0.4.
-double corresponding(double c) { return std::clamp((c - 0.1) / 0.3, 0.0, 1.0); }
+template <class T>
+T corresponding(T c) {
+    return std::clamp((c - T(0.1)) / T(0.3), T(0), T(1));
+}
 
 // Per pixel, how far the detail of a and b (the same size) agrees: detail is each image minus its
 // 5x5 box mean, and c = max(0, <Da, Db> / (|Da| |Db|)) over the colour channels and a 9x9 window
@@ -74,11 +77,12 @@ Image detail_agreement(const Image& a, const Image& b) {
     return out;
 }
 
-// Adds to `agreement` three planes per pixel of A: the local energies of the residuals ra (A's)
-// and rb (B's, warped to A) and their inner product, summed over channels and a 7x7 window: what
-// the residual band's gain in aware_weights needs, measured once in A's pixels.
-void add_residual_energies(Image& agreement, const Image& ra, const Image& rb) {
+// Three planes per pixel of A: the local energies of the residuals ra (A's) and rb (B's, warped
+// to A) and their inner product, summed over channels and a 7x7 window: what the residual band's
+// gain in aware_weights needs.
+std::vector<std::vector<float>> residual_energies(const Image& ra, const Image& rb) {
     const int W = ra.width, H = ra.height;
+    std::vector<std::vector<float>> out;
     for (int k = 0; k < 3; ++k) {
         std::vector<float> sums(static_cast<size_t>(W) * H, 0.0f);
         for (int c = 0; c < ra.channels(); ++c) {
@@ -88,8 +92,32 @@ void add_residual_energies(Image& agreement, const Image& ra, const Image& rb) {
         }
         cv::Mat m(H, W, CV_32F, sums.data());
         cv::boxFilter(m, m, -1, {7, 7});
-        agreement.planes.push_back(std::move(sums));
+        out.push_back(std::move(sums));
     }
+    return out;
+}
+
+// out = the colour planes (the first Ch of `planes`) rendered, plus the residuals read at each
+// pixel's place in A (planes Ch, Ch + 1) and, with Extra 4 or 6, in B (planes Ch + 2, Ch + 3),
+// weighted by ka and kb or, with Extra 6, by the last two planes: the frame and its residual warp
+// in one pass over the plan.
+template <int Ch, int Extra>
+void compose(const RenderPlan& plan, std::span<const std::span<const float>> planes,
+             const Image& ra, const Image& rb, float ka, float kb, Image& out) {
+    render_each<Ch + Extra>(plan, planes, [&](int32_t px, const float* v) {
+        const Tap ta = bilinear_tap(ra.width, ra.height, 1.0, {v[Ch], v[Ch + 1]});
+        if constexpr (Extra == 2) {
+            for (int c = 0; c < Ch; ++c)
+                out.planes[c][px] = v[c] + ka * bilinear_at(ta, ra.planes[c].data());
+        } else {
+            const Tap tb = bilinear_tap(rb.width, rb.height, 1.0, {v[Ch + 2], v[Ch + 3]});
+            const float wa = Extra == 6 ? v[Ch + 4] : ka, wb = Extra == 6 ? v[Ch + 5] : kb;
+            for (int c = 0; c < Ch; ++c) {
+                out.planes[c][px] = v[c] + (wa * bilinear_at(ta, ra.planes[c].data()) +
+                                            wb * bilinear_at(tb, rb.planes[c].data()));
+            }
+        }
+    });
 }
 
 // Image b (its pixels) fetched bilinearly at the positions in b of plan's pixels, which the
@@ -226,14 +254,33 @@ Morph::Morph(const Image& a, const Image& b, const Mesh& mesh_a, const Mesh& mes
         if (aware && k == 0) plan_a.push_back(std::move(plan));
     }
     if (aware) {
+        // Per pixel of A, then read at each T_J sample's place in A (placed_).
         const std::span<const float> at_b[] = {position_b_[0], position_b_[1]};
-        agreement_ = detail_agreement(
-            image_a, warped_through(plan_a[0], at_b, image_b, image_a.width, image_a.height));
+        std::vector<std::vector<float>> maps;
+        maps.push_back(
+            std::move(detail_agreement(image_a, warped_through(plan_a[0], at_b, image_b,
+                                                               image_a.width, image_a.height))
+                          .planes[0]));
         if (options_.residual) {
-            add_residual_energies(
-                agreement_, residual_a_,
-                warped_through(plan_a[0], at_b, residual_b_, image_a.width, image_a.height));
+            for (auto& plane : residual_energies(
+                     residual_a_,
+                     warped_through(plan_a[0], at_b, residual_b_, image_a.width, image_a.height))) {
+                maps.push_back(std::move(plane));
+            }
         }
+        const size_t n = position_a_[0].size();
+        placed_.assign(maps.size(), std::vector<float>(n));
+        parallel_for(
+            static_cast<int64_t>(n),
+            [&](int64_t begin, int64_t end) {
+                for (int64_t i = begin; i < end; ++i) {
+                    const Tap tap = bilinear_tap(image_a.width, image_a.height, 1.0,
+                                                 {position_a_[0][i], position_a_[1][i]});
+                    for (size_t k = 0; k < maps.size(); ++k)
+                        placed_[k][i] = bilinear_at(tap, maps[k].data());
+                }
+            },
+            16384);
     }
     report(options.progress, 0.8, "transforms");
     coeff_a_ = samples_a_;
@@ -346,12 +393,9 @@ void Morph::measure_agreement() {
                     }
                     const double pooled =
                         aa > 0 && bb > 0 ? std::clamp(ab / std::sqrt(aa * bb), 0.0, 1.0) : 0.0;
-                    const Tap tap = bilinear_tap(agreement_.width, agreement_.height, 1.0,
-                                                 {position_a_[0][i], position_a_[1][i]});
-                    const float placed = bilinear_at(tap, agreement_.planes[0].data());
                     corresponding_[i] = static_cast<float>(
                         std::max({corresponding(correspondence(static_cast<int32_t>(i))),
-                                  corresponding(pooled), corresponding(placed)}));
+                                  corresponding(pooled), corresponding(double{placed_[0][i]})}));
                 }
             },
             4096);
@@ -420,72 +464,69 @@ Planes Morph::blended(double t) const {
     return w;
 }
 
-void Morph::add_residuals(const RenderPlan& plan, double t, int side, Image& out) const {
+Image Morph::with_residuals(const RenderPlan& plan, std::vector<std::span<const float>> planes,
+                            double t, int side) const {
     const int J = levels();
     const Schedule& s = options_.schedule;
+    const int channels = static_cast<int>(planes.size());
+    if (channels != 3 && channels != 4) throw Error("morph: frames have 3 or 4 channels");
     const float x = static_cast<float>(s.band_weight(J, J + 1, t));
-    // The residuals warped to the frame: each pixel's place in A and in B (the mesh map,
-    // rendered) read bilinearly, in one pass over the plan.
-    const int channels = out.channels();
-    const size_t n = out.planes[0].size();
+    Image out = make_image(plan.width, plan.height, channels, SampleFormat::u8);
+    const auto run = [&]<int Extra>(const Image& ra, const Image& rb, float ka, float kb) {
+        if (channels == 4) return compose<4, Extra>(plan, planes, ra, rb, ka, kb, out);
+        compose<3, Extra>(plan, planes, ra, rb, ka, kb, out);
+    };
     if (side >= 0) {  // one endpoint alone
         const auto& position = side == 0 ? position_a_ : position_b_;
         const Image& residual = side == 0 ? residual_a_ : residual_b_;
-        const std::span<const float> at_side[] = {position[0], position[1]};
-        render_each<2>(plan, at_side, [&](int32_t px, const float* at) {
-            const Tap tp = bilinear_tap(residual.width, residual.height, 1.0, {at[0], at[1]});
-            for (int c = 0; c < channels; ++c)
-                out.planes[c][px] += bilinear_at(tp, residual.planes[c].data());
-        });
-        return;
+        planes.insert(planes.end(), {position[0], position[1]});
+        run.operator()<2>(residual, residual, 1.0f, 0.0f);
+        return out;
     }
-    const std::span<const float> at_both[] = {position_a_[0], position_a_[1], position_b_[0],
-                                              position_b_[1]};
-    const auto taps = [&](const float* at) {
-        return std::pair{bilinear_tap(residual_a_.width, residual_a_.height, 1.0, {at[0], at[1]}),
-                         bilinear_tap(residual_b_.width, residual_b_.height, 1.0, {at[2], at[3]})};
-    };
+    planes.insert(planes.end(), {position_a_[0], position_a_[1], position_b_[0], position_b_[1]});
     if (s.kind == ScheduleKind::aware) {
-        // Per pixel, the weights from the pixel agreement and the residuals' local energies at
-        // its place in A (agreement_, measured once), then the blend: one pass.
+        // Each T_J sample's weights from the pixel agreement and the residuals' local energies at
+        // its place in A (placed_, measured once), rendered with the frame.
         const auto [ha, hb] = handover_weights(s.handover(J + 1, J + 2, t), 2.0);
         const float tf = static_cast<float>(t), haf = static_cast<float>(ha),
                     hbf = static_cast<float>(hb);
-        const float* local[4];
-        for (int k = 0; k < 4; ++k) local[k] = agreement_.planes[k].data();
-        render_each<4>(plan, at_both, [&](int32_t px, const float* at) {
-            const auto [ta, tb] = taps(at);
-            const auto [wa, wb] =
-                aware_weights(static_cast<float>(corresponding(bilinear_at(ta, local[0]))),
-                              bilinear_at(ta, local[1]), bilinear_at(ta, local[2]),
-                              bilinear_at(ta, local[3]), tf, haf, hbf);
-            for (int c = 0; c < channels; ++c) {
-                out.planes[c][px] += wa * bilinear_at(ta, residual_a_.planes[c].data()) +
-                                     wb * bilinear_at(tb, residual_b_.planes[c].data());
-            }
-        });
-        return;
+        const size_t n = placed_[0].size();
+        std::vector<float> wa(n), wb(n);
+        parallel_for(
+            static_cast<int64_t>(n),
+            [&](int64_t begin, int64_t end) {
+                for (int64_t i = begin; i < end; ++i) {
+                    const auto [ka, kb] = aware_weights(corresponding(placed_[0][i]), placed_[1][i],
+                                                        placed_[2][i], placed_[3][i], tf, haf, hbf);
+                    wa[i] = ka, wb[i] = kb;
+                }
+            },
+            16384);
+        planes.insert(planes.end(), {wa, wb});
+        run.operator()<6>(residual_a_, residual_b_, 0.0f, 0.0f);
+        return out;
     }
     if (s.kind != ScheduleKind::sharp) {  // linear and bands: the finest band's weight
-        render_each<4>(plan, at_both, [&](int32_t px, const float* at) {
-            const auto [ta, tb] = taps(at);
-            for (int c = 0; c < channels; ++c) {
-                out.planes[c][px] += (1 - x) * bilinear_at(ta, residual_a_.planes[c].data()) +
-                                     x * bilinear_at(tb, residual_b_.planes[c].data());
-            }
-        });
-        return;
+        run.operator()<4>(residual_a_, residual_b_, 1 - x, x);
+        return out;
     }
     // sharp: the residual is the finest band, rescaled like the others by energies over the
     // whole frame, so the warped residuals are kept for a second pass.
+    const size_t n = out.planes[0].size();
     std::vector<std::vector<float>> ra(channels, std::vector<float>(n)), rb = ra;
-    render_each<4>(plan, at_both, [&](int32_t px, const float* at) {
-        const auto [ta, tb] = taps(at);
-        for (int c = 0; c < channels; ++c) {
-            ra[c][px] = bilinear_at(ta, residual_a_.planes[c].data());
-            rb[c][px] = bilinear_at(tb, residual_b_.planes[c].data());
-        }
-    });
+    const std::span<const std::span<const float>> colour(planes.data(),
+                                                         static_cast<size_t>(channels));
+    render_into(plan, colour, out);
+    render_each<4>(
+        plan, std::span(planes).subspan(static_cast<size_t>(channels)),
+        [&](int32_t px, const float* at) {
+            const Tap ta = bilinear_tap(residual_a_.width, residual_a_.height, 1.0, {at[0], at[1]});
+            const Tap tb = bilinear_tap(residual_b_.width, residual_b_.height, 1.0, {at[2], at[3]});
+            for (int c = 0; c < channels; ++c) {
+                ra[c][px] = bilinear_at(ta, residual_a_.planes[c].data());
+                rb[c][px] = bilinear_at(tb, residual_b_.planes[c].data());
+            }
+        });
     for (int c = 0; c < channels; ++c) {
         double ea = 0, eb = 0, e = 0;
         for (size_t i = 0; i < n; ++i) {
@@ -498,6 +539,7 @@ void Morph::add_residuals(const RenderPlan& plan, double t, int side, Image& out
         for (size_t i = 0; i < n; ++i)
             out.planes[c][i] += gain * ((1 - x) * ra[c][i] + x * rb[c][i]);
     }
+    return out;
 }
 
 std::vector<double> Morph::detail_energy(double t) const {
@@ -523,9 +565,8 @@ Image Morph::render_at(Planes w, double t, bool preview, int side) const {
     inverse_transform(h, spans(w));  // patches shared among the cores
     const RenderPlan plan = plan_render(h, v, width_, height_, width_, height_);
     std::vector<std::span<const float>> in(w.begin(), w.end());
-    Image out = render(plan, in, SampleFormat::u8);
-    if (options_.residual && !preview) add_residuals(plan, t, side, out);
-    return out;
+    if (options_.residual && !preview) return with_residuals(plan, std::move(in), t, side);
+    return render(plan, in, SampleFormat::u8);
 }
 
 Image Morph::frame(double t, const FrameOptions& options) const {

@@ -88,8 +88,10 @@ class Morph {
     int height() const { return height_; }
 
   private:
-    // The residuals at t (side -1: blended by the schedule; 0 or 1: that image's alone).
-    void add_residuals(const RenderPlan& plan, double t, int side, Image& out) const;
+    // The frame rendered from `planes` (the reconstructed samples) plus the residuals at t (side
+    // -1: blended by the schedule; 0 or 1: that image's alone).
+    Image with_residuals(const RenderPlan& plan, std::vector<std::span<const float>> planes,
+                         double t, int side) const;
     Image render_at(std::vector<std::vector<float>> coefficients, double t, bool preview,
                     int side) const;
     void measure_agreement();
@@ -108,10 +110,11 @@ class Morph {
     // product (over channels, smoothed over the coefficient's neighbourhood on its level).
     std::vector<float> local_a_, local_b_, local_ab_;
     std::vector<float> corresponding_;  // how far each counts as corresponding, 0..1
-    // aware, per pixel of A: plane 0, how far A's detail and B's (warped to A) agree
-    // (detail_agreement); with the residual warp, planes 1 to 3 the residuals' local energies and
-    // inner product (B's warped to A, 7x7 windows), which the residual band's gain needs.
-    Image agreement_;
+    // aware, per T_J sample at its place in A: plane 0, how far A's pixel detail and B's (warped
+    // to A) agree there (detail_agreement); with the residual warp, planes 1 to 3 the residuals'
+    // local energies and inner product (B's warped to A, 7x7 windows), which the residual band's
+    // weights need.
+    std::vector<std::vector<float>> placed_;
 };
 
 }  // namespace tesswave::morph
