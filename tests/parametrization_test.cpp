@@ -2,7 +2,10 @@
 
 #include <gtest/gtest.h>
 
+#include <bit>
+#include <cstdint>
 #include <random>
+#include <vector>
 
 #include "samples/sample_meshes.h"
 #include "test_meshes.h"
@@ -44,6 +47,44 @@ TEST(Parametrization, inverse_round_trip_on_convex_quads) {
         if (!convex) continue;
         expect_round_trip(q, rng);
         ++tested;
+    }
+}
+
+// QuadInverse::row (four points at a time with AVX2) gives operator()'s bits for every point of
+// a row: convex quads, parallelograms and trapezoids (the linear case), zero-area quads, and rows
+// reaching outside the quad, of every length up to 13 (whole fours and the remainder).
+TEST(Parametrization, row_gives_the_inverse_of_each_point_to_the_bit) {
+    std::mt19937_64 rng(41);
+    std::vector<Quad> quads = {
+        {Vec2{0, 0}, {4, 0}, {4, 3}, {0, 3}},           // a rectangle
+        {Vec2{1, 1}, {5, 2}, {6, 6}, {2, 5}},           // a parallelogram: a x c = 0
+        {Vec2{0, 0}, {8, 0}, {6, 4}, {2, 4}},           // a trapezoid
+        {Vec2{0, 0}, {0, 0}, {0, 0}, {0, 0}},           // a point
+        {Vec2{0, 0}, {4, 0}, {8, 0}, {12, 0}},          // a segment
+        {Vec2{0, 0}, {1e-9, 0}, {1e-9, 1e-9}, {0, 1}},  // nearly degenerate
+    };
+    for (int k = 0; k < 200; ++k) {
+        Quad q;
+        for (int c = 0; c < 4; ++c) {
+            const double x = (c == 1 || c == 2) ? 10 : 0, y = c >= 2 ? 10 : 0;
+            q[c] = {x + 4 * (uniform(rng) - 0.5), y + 4 * (uniform(rng) - 0.5)};
+        }
+        quads.push_back(q);
+    }
+    for (const Quad& q : quads) {
+        const QuadInverse inverse(q);
+        for (int count = 1; count <= 13; ++count) {
+            const double x0 = -3.5 + 16 * uniform(rng), y = -2.5 + 15 * uniform(rng);
+            std::vector<double> u(count), v(count);
+            inverse.row(x0, y, count, u.data(), v.data());
+            for (int i = 0; i < count; ++i) {
+                const UV expected = inverse({x0 + i, y});
+                ASSERT_EQ(std::bit_cast<uint64_t>(u[i]), std::bit_cast<uint64_t>(expected.u))
+                    << "point " << i << " of " << count;
+                ASSERT_EQ(std::bit_cast<uint64_t>(v[i]), std::bit_cast<uint64_t>(expected.v))
+                    << "point " << i << " of " << count;
+            }
+        }
     }
 }
 

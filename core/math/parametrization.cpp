@@ -2,7 +2,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numeric>
+#if defined(__x86_64__)
+#include <immintrin.h>
+#endif
 
 #include "core/math/error.h"
 #include "core/math/strings.h"
@@ -14,6 +18,123 @@ Vec2 bilinear(const Quad& q, double u, double v) {
 }
 
 UV inverse_bilinear(const Quad& q, Vec2 p) { return QuadInverse(q)(p); }
+
+void QuadInverse::row(double x0, double y, int32_t count, double* u, double* v) const {
+#if defined(__x86_64__)
+    static const bool avx2 = __builtin_cpu_supports("avx2");
+    const int32_t done = avx2 ? row_avx2(x0, y, count, u, v) : 0;
+#else
+    const int32_t done = 0;
+#endif
+    for (int32_t i = done; i < count; ++i) {
+        const UV uv = (*this)({x0 + i, y});
+        u[i] = uv.u, v[i] = uv.v;
+    }
+}
+
+#if defined(__x86_64__)
+namespace {
+
+#define TESSWAVE_AVX2 [[gnu::target("avx2"), gnu::always_inline]] inline
+
+TESSWAVE_AVX2 __m256d abs4(__m256d x) { return _mm256_andnot_pd(_mm256_set1_pd(-0.0), x); }
+TESSWAVE_AVX2 __m256d select4(__m256d mask, __m256d yes, __m256d no) {
+    return _mm256_blendv_pd(no, yes, mask);
+}
+TESSWAVE_AVX2 __m256d less4(__m256d a, __m256d b) { return _mm256_cmp_pd(a, b, _CMP_LT_OQ); }
+// std::clamp(x, 0, 1) and QuadInverse::outside(x), NaN passing as the scalar comparisons let it.
+TESSWAVE_AVX2 __m256d clamp01_4(__m256d x) {
+    const __m256d zero = _mm256_setzero_pd(), one = _mm256_set1_pd(1.0);
+    return select4(less4(x, zero), zero, select4(less4(one, x), one, x));
+}
+TESSWAVE_AVX2 __m256d outside4(__m256d x) {
+    const __m256d zero = _mm256_setzero_pd(), one = _mm256_set1_pd(1.0);
+    return select4(less4(x, zero), _mm256_xor_pd(x, _mm256_set1_pd(-0.0)),
+                   select4(less4(one, x), _mm256_sub_pd(x, one), zero));
+}
+
+// QuadInverse::v_for((px, y), u) without a branch: p00 + u (p10 - p00) and p01 + u (p11 - p01).
+struct Edges4 {
+    __m256d y, p00x, p00y, p01x, p01y, ax, ay, ex, ey;
+};
+TESSWAVE_AVX2 __m256d v_at4(const Edges4& e, __m256d px, __m256d u) {
+    const __m256d p0x = _mm256_add_pd(e.p00x, _mm256_mul_pd(u, e.ax));
+    const __m256d p0y = _mm256_add_pd(e.p00y, _mm256_mul_pd(u, e.ay));
+    const __m256d p1x = _mm256_add_pd(e.p01x, _mm256_mul_pd(u, e.ex));
+    const __m256d p1y = _mm256_add_pd(e.p01y, _mm256_mul_pd(u, e.ey));
+    const __m256d dx = _mm256_sub_pd(p1x, p0x), dy = _mm256_sub_pd(p1y, p0y);
+    const __m256d along_x = _mm256_cmp_pd(abs4(dx), abs4(dy), _CMP_GT_OQ);
+    return _mm256_div_pd(select4(along_x, _mm256_sub_pd(px, p0x), _mm256_sub_pd(e.y, p0y)),
+                         select4(along_x, dx, dy));
+}
+
+#undef TESSWAVE_AVX2
+
+}  // namespace
+
+// The points in fours: operator() lane by lane, the same operations in the same order. Returns
+// how many points it did (a multiple of four); the caller does the rest.
+[[gnu::target("avx2")]] int32_t QuadInverse::row_avx2(double x0, double y, int32_t count, double* u,
+                                                      double* v) const {
+    const __m256d zero = _mm256_setzero_pd(), sign = _mm256_set1_pd(-0.0);
+    const __m256d inf = _mm256_set1_pd(INFINITY);
+    const double wy = y - p00_.y;
+    const __m256d wy_cx = _mm256_set1_pd(wy * c_.x), wy_bx = _mm256_set1_pd(wy * b_.x);
+    const __m256d cy = _mm256_set1_pd(c_.y), by = _mm256_set1_pd(b_.y);
+    const __m256d ab = _mm256_set1_pd(ab_), abs_ab = _mm256_set1_pd(std::abs(ab_));
+    const __m256d A = _mm256_set1_pd(A_), abs_a = _mm256_set1_pd(std::abs(A_));
+    const __m256d four_a = _mm256_set1_pd(4 * A_), tiny = _mm256_set1_pd(1e-300);
+    const __m256d eps = _mm256_set1_pd(1e-12), minus_half = _mm256_set1_pd(-0.5);
+    const __m256d largest = _mm256_set1_pd(std::numeric_limits<double>::max());
+    const Edges4 edges = {_mm256_set1_pd(y),
+                          _mm256_set1_pd(p00_.x),
+                          _mm256_set1_pd(p00_.y),
+                          _mm256_set1_pd(p01_.x),
+                          _mm256_set1_pd(p01_.y),
+                          _mm256_set1_pd(p10_.x - p00_.x),
+                          _mm256_set1_pd(p10_.y - p00_.y),
+                          _mm256_set1_pd(p11_.x - p01_.x),
+                          _mm256_set1_pd(p11_.y - p01_.y)};
+    int32_t i = 0;
+    for (; i + 4 <= count; i += 4) {
+        const __m256d px =
+            _mm256_add_pd(_mm256_set1_pd(x0), _mm256_setr_pd(i, i + 1.0, i + 2.0, i + 3.0));
+        const __m256d wx = _mm256_sub_pd(px, edges.p00x);
+        const __m256d B = _mm256_sub_pd(_mm256_sub_pd(_mm256_mul_pd(wx, cy), wy_cx), ab);
+        const __m256d C = _mm256_sub_pd(_mm256_mul_pd(wx, by), wy_bx);
+        // std::max({|ab|, |B|, 1e-300}), as it compares.
+        const __m256d abs_b = abs4(B);
+        const __m256d m1 = select4(less4(abs_ab, abs_b), abs_b, abs_ab);
+        const __m256d scale = select4(less4(m1, tiny), tiny, m1);
+        const __m256d linear = _mm256_cmp_pd(abs_a, _mm256_mul_pd(eps, scale), _CMP_LE_OQ);
+        const __m256d d2 = _mm256_sub_pd(_mm256_mul_pd(B, B), _mm256_mul_pd(four_a, C));
+        const __m256d disc = _mm256_sqrt_pd(select4(less4(zero, d2), d2, zero));
+        const __m256d signed_disc =
+            _mm256_or_pd(_mm256_andnot_pd(sign, disc), _mm256_and_pd(sign, B));
+        const __m256d qv = _mm256_mul_pd(minus_half, _mm256_add_pd(B, signed_disc));
+        const __m256d r0 =
+            select4(linear, _mm256_div_pd(_mm256_xor_pd(C, sign), B), _mm256_div_pd(qv, A));
+        const __m256d r1 = _mm256_div_pd(C, qv);
+        const __m256d two = _mm256_andnot_pd(linear, _mm256_cmp_pd(qv, zero, _CMP_NEQ_UQ));
+        const __m256d u0 = clamp01_4(r0), u1 = clamp01_4(r1);
+        const __m256d v0 = v_at4(edges, px, u0), v1 = v_at4(edges, px, u1);
+        const __m256d s0 = _mm256_add_pd(outside4(r0), outside4(v0));
+        const __m256d s1 = _mm256_add_pd(outside4(r1), outside4(v1));
+        const __m256d take0 = less4(s0, inf);
+        __m256d bu = select4(take0, u0, r0), bv = select4(take0, v0, zero);
+        const __m256d bs = select4(take0, s0, inf);
+        const __m256d take1 = _mm256_and_pd(two, less4(s1, bs));
+        bu = select4(take1, u1, bu);
+        bv = select4(take1, v1, bv);
+        // std::isfinite: false for NaN and the infinities.
+        bu = select4(_mm256_cmp_pd(abs4(bu), largest, _CMP_LE_OQ), bu, zero);
+        bv = select4(_mm256_cmp_pd(abs4(bv), largest, _CMP_LE_OQ), bv, zero);
+        _mm256_storeu_pd(u + i, bu);
+        _mm256_storeu_pd(v + i, clamp01_4(bv));
+    }
+    return i;
+}
+#endif
 
 std::vector<Quad> t1_quads(const Hierarchy& hierarchy, std::span<const Vec2> mesh_vertices) {
     const LevelTopology& t1 = hierarchy.levels.at(1);

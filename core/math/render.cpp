@@ -39,6 +39,35 @@ bool row_span(const Quad& q, double yc, int& first, int& last) {
     return last > first;
 }
 
+// std::round(f * 65536) for f in [0, 1]: the integer part, plus one from a half up (the fraction
+// x - whole is exact), without a call to libm.
+inline uint16_t fixed16(double f) {
+    const double x = f * 65536.0;
+    const auto whole = static_cast<int32_t>(x);  // f is in [0, 1]: x fits
+    const int32_t rounded = whole + (x - static_cast<double>(whole) >= 0.5);
+    return static_cast<uint16_t>(std::min<int32_t>(65535, rounded));
+}
+
+// The plan entries of one row run of a quad: each pixel's grid cell and fractions, from the
+// quad's inverse bilinear map (QuadInverse::row, four pixels at a time) in chunks on the stack.
+void plan_run(const QuadInverse& inverse, int32_t first, int32_t length, int32_t k, int32_t m,
+              int32_t* cell, std::array<uint16_t, 2>* st) {
+    constexpr int32_t kChunk = 64;
+    double u[kChunk], v[kChunk];
+    const int32_t side = m + 1;
+    for (int32_t done = 0; done < length; done += kChunk) {
+        const int32_t n = std::min(kChunk, length - done);
+        inverse.row(first + done + 0.5, k + 0.5, n, u, v);
+        for (int32_t j = 0; j < n; ++j) {
+            const double s = u[j] * m, r = v[j] * m;
+            const int32_t c0 = std::min(static_cast<int32_t>(s), m - 1);
+            const int32_t r0 = std::min(static_cast<int32_t>(r), m - 1);
+            cell[done + j] = r0 * side + c0;
+            st[done + j] = {fixed16(s - c0), fixed16(r - r0)};
+        }
+    }
+}
+
 }  // namespace
 
 RenderPlan plan_render(const Hierarchy& h, std::span<const Vec2> mesh_vertices, double W, double H,
@@ -51,7 +80,7 @@ RenderPlan plan_render(const Hierarchy& h, std::span<const Vec2> mesh_vertices, 
         throw Error(str("render: output size ", width, "x", height, " is out of range"));
     }
     const LevelTopology& t = h.levels[level];
-    const int32_t m = t.patch_cells, side = m + 1;
+    const int32_t m = t.patch_cells;
     const double sx = width / W, sy = height / H;
     std::vector<Quad> quads = t1_quads(h, mesh_vertices);
     RenderPlan plan;
@@ -99,22 +128,9 @@ RenderPlan plan_render(const Hierarchy& h, std::span<const Vec2> mesh_vertices, 
                 for (int32_t run = plan.quad_runs[qi]; run < plan.quad_runs[qi + 1]; ++run) {
                     const int32_t k = plan.run_start[run] / width;
                     const int32_t first = plan.run_start[run] % width;
-                    for (int32_t i = first; i < first + plan.run_length[run]; ++i, ++e) {
-                        const UV uv = inverse({i + 0.5, k + 0.5});
-                        const double s = uv.u * m, r = uv.v * m;
-                        const int32_t c0 = std::min(static_cast<int32_t>(s), m - 1);
-                        const int32_t r0 = std::min(static_cast<int32_t>(r), m - 1);
-                        // std::round(f * 65536) for f in [0, 1]: the integer part, plus one from
-                        // a half up (the fraction x - whole is exact), without a call to libm.
-                        auto fixed = [](double f) {
-                            const double x = f * 65536.0;
-                            const auto whole = static_cast<int64_t>(x);
-                            const int64_t rounded = whole + (x - static_cast<double>(whole) >= 0.5);
-                            return static_cast<uint16_t>(std::min<int64_t>(65535, rounded));
-                        };
-                        plan.cell[e] = r0 * side + c0;
-                        plan.st[e] = {fixed(s - c0), fixed(r - r0)};
-                    }
+                    plan_run(inverse, first, plan.run_length[run], k, m, plan.cell.data() + e,
+                             plan.st.data() + e);
+                    e += static_cast<size_t>(plan.run_length[run]);
                 }
             }
         },
