@@ -8,6 +8,7 @@
 #include "core/math/hierarchy.h"
 #include "core/math/lifting.h"
 #include "core/math/parallel.h"
+#include "core/math/parametrization.h"
 #include "core/math/project.h"
 #include "core/math/render.h"
 #include "core/math/sampling.h"
@@ -97,21 +98,22 @@ std::vector<std::vector<float>> residual_energies(const Image& ra, const Image& 
     return out;
 }
 
-// out = the colour planes (the first Ch of `planes`) rendered, plus the residuals read at each
-// pixel's place in A (planes Ch, Ch + 1) and, with Extra 4 or 6, in B (planes Ch + 2, Ch + 3),
-// weighted by ka and kb or, with Extra 6, by the last two planes: the frame and its residual warp
-// in one pass over the plan.
-template <int Ch, int Extra>
+// out = the colour planes (the first Ch of `planes`) rendered, plus the residual ra read where
+// each pixel lies in A (maps_a) and, when Both, rb where it lies in B, weighted by ka and kb or,
+// with Weights 2, by the two planes after the colour: the frame and its residual warp in one
+// pass over the plan.
+template <int Ch, int Weights, bool Both>
 void compose(const RenderPlan& plan, std::span<const std::span<const float>> planes,
-             const Image& ra, const Image& rb, float ka, float kb, Image& out) {
-    render_each<Ch + Extra>(plan, planes, [&](int32_t px, const float* v) {
-        const Tap ta = bilinear_tap(ra.width, ra.height, 1.0, {v[Ch], v[Ch + 1]});
-        if constexpr (Extra == 2) {
+             std::span<const QuadMap> maps_a, std::span<const QuadMap> maps_b, const Image& ra,
+             const Image& rb, float ka, float kb, Image& out) {
+    render_each<Ch + Weights>(plan, planes, [&](int32_t px, const float* v, PlanPlace at) {
+        const Tap ta = bilinear_tap(ra.width, ra.height, 1.0, maps_a[at.quad].at(at.u, at.v));
+        if constexpr (!Both) {
             for (int c = 0; c < Ch; ++c)
                 out.planes[c][px] = v[c] + ka * bilinear_at(ta, ra.planes[c].data());
         } else {
-            const Tap tb = bilinear_tap(rb.width, rb.height, 1.0, {v[Ch + 2], v[Ch + 3]});
-            const float wa = Extra == 6 ? v[Ch + 4] : ka, wb = Extra == 6 ? v[Ch + 5] : kb;
+            const Tap tb = bilinear_tap(rb.width, rb.height, 1.0, maps_b[at.quad].at(at.u, at.v));
+            const float wa = Weights == 2 ? v[Ch] : ka, wb = Weights == 2 ? v[Ch + 1] : kb;
             for (int c = 0; c < Ch; ++c) {
                 out.planes[c][px] = v[c] + (wa * bilinear_at(ta, ra.planes[c].data()) +
                                             wb * bilinear_at(tb, rb.planes[c].data()));
@@ -120,16 +122,26 @@ void compose(const RenderPlan& plan, std::span<const std::span<const float>> pla
     });
 }
 
-// Image b (its pixels) fetched bilinearly at the positions in b of plan's pixels, which the
-// sample planes `at_b` (x, y) give: b warped onto the plan's mesh.
-Image warped_through(const RenderPlan& plan, std::span<const std::span<const float>> at_b,
-                     const Image& b, int width, int height) {
-    Image out = make_image(width, height, b.channels(), SampleFormat::f32);
-    render_each<2>(plan, at_b, [&](int32_t px, const float* at) {
-        const Tap tap = bilinear_tap(b.width, b.height, 1.0, {at[0], at[1]});
+// Image b fetched bilinearly where the plan's pixels lie in b (quads: the T1 quads' maps into b's
+// pixels): b warped onto the plan's mesh.
+Image warped_through(const RenderPlan& plan, std::span<const QuadMap> quads, const Image& b) {
+    Image out = make_image(plan.width, plan.height, b.channels(), SampleFormat::f32);
+    render_each<0>(plan, {}, [&](int32_t px, const float*, PlanPlace at) {
+        const Tap tap = bilinear_tap(b.width, b.height, 1.0, quads[at.quad].at(at.u, at.v));
         for (int c = 0; c < b.channels(); ++c)
             out.planes[c][px] = bilinear_at(tap, b.planes[c].data());
     });
+    return out;
+}
+
+std::vector<QuadMap> quad_maps(const std::vector<Quad>& quads) {
+    std::vector<QuadMap> out;
+    out.reserve(quads.size());
+    for (const Quad& q : quads) {  // p00, p10, p11, p01
+        const Vec2 a = q[1] - q[0], b = q[3] - q[0], c = (q[2] - q[1]) - b;
+        const auto f = [](double x) { return static_cast<float>(x); };
+        out.push_back({f(q[0].x), f(q[0].y), f(a.x), f(a.y), f(b.x), f(b.y), f(c.x), f(c.y)});
+    }
     return out;
 }
 
@@ -223,15 +235,8 @@ Morph::Morph(const Image& a, const Image& b, const Mesh& mesh_a, const Mesh& mes
     report(options.progress, 0.5, "residuals");
     const bool aware = options_.schedule.kind == ScheduleKind::aware;
     if (options_.residual || aware) {
-        // The T_J sample positions in each image's pixels: the mesh map, pixel by pixel.
-        for (auto* position : {&position_a_, &position_b_}) {
-            const Mesh& mesh = position == &position_a_ ? mesh_a : mesh_b;
-            position->assign(2, {});
-            for (const Vec2& p : refine_positions(hierarchy_, mesh.vertices, J)) {
-                (*position)[0].push_back(static_cast<float>(p.x));
-                (*position)[1].push_back(static_cast<float>(p.y));
-            }
-        }
+        quads_a_ = quad_maps(t1_quads(hierarchy_, mesh_a.vertices));
+        quads_b_ = quad_maps(t1_quads(hierarchy_, mesh_b.vertices));
     }
     const Image image_a = with_channels(a, channels), image_b = with_channels(b, channels);
     std::vector<RenderPlan> plan_a;  // aware: A's plan, for warping B to A below
@@ -255,27 +260,23 @@ Morph::Morph(const Image& a, const Image& b, const Mesh& mesh_a, const Mesh& mes
     }
     if (aware) {
         // Per pixel of A, then read at each T_J sample's place in A (placed_).
-        const std::span<const float> at_b[] = {position_b_[0], position_b_[1]};
         std::vector<std::vector<float>> maps;
-        maps.push_back(
-            std::move(detail_agreement(image_a, warped_through(plan_a[0], at_b, image_b,
-                                                               image_a.width, image_a.height))
-                          .planes[0]));
+        maps.push_back(std::move(
+            detail_agreement(image_a, warped_through(plan_a[0], quads_b_, image_b)).planes[0]));
         if (options_.residual) {
-            for (auto& plane : residual_energies(
-                     residual_a_,
-                     warped_through(plan_a[0], at_b, residual_b_, image_a.width, image_a.height))) {
+            for (auto& plane :
+                 residual_energies(residual_a_, warped_through(plan_a[0], quads_b_, residual_b_))) {
                 maps.push_back(std::move(plane));
             }
         }
-        const size_t n = position_a_[0].size();
+        const std::vector<Vec2> position = refine_positions(hierarchy_, mesh_a.vertices, J);
+        const size_t n = position.size();
         placed_.assign(maps.size(), std::vector<float>(n));
         parallel_for(
             static_cast<int64_t>(n),
             [&](int64_t begin, int64_t end) {
                 for (int64_t i = begin; i < end; ++i) {
-                    const Tap tap = bilinear_tap(image_a.width, image_a.height, 1.0,
-                                                 {position_a_[0][i], position_a_[1][i]});
+                    const Tap tap = bilinear_tap(image_a.width, image_a.height, 1.0, position[i]);
                     for (size_t k = 0; k < maps.size(); ++k)
                         placed_[k][i] = bilinear_at(tap, maps[k].data());
                 }
@@ -472,18 +473,19 @@ Image Morph::with_residuals(const RenderPlan& plan, std::vector<std::span<const 
     if (channels != 3 && channels != 4) throw Error("morph: frames have 3 or 4 channels");
     const float x = static_cast<float>(s.band_weight(J, J + 1, t));
     Image out = make_image(plan.width, plan.height, channels, SampleFormat::u8);
-    const auto run = [&]<int Extra>(const Image& ra, const Image& rb, float ka, float kb) {
-        if (channels == 4) return compose<4, Extra>(plan, planes, ra, rb, ka, kb, out);
-        compose<3, Extra>(plan, planes, ra, rb, ka, kb, out);
+    const auto run = [&]<int Weights, bool Both>(const Image& ra, const Image& rb, float ka,
+                                                 float kb) {
+        const auto& maps_a = Both || side == 0 ? quads_a_ : quads_b_;
+        if (channels == 4) {
+            return compose<4, Weights, Both>(plan, planes, maps_a, quads_b_, ra, rb, ka, kb, out);
+        }
+        compose<3, Weights, Both>(plan, planes, maps_a, quads_b_, ra, rb, ka, kb, out);
     };
     if (side >= 0) {  // one endpoint alone
-        const auto& position = side == 0 ? position_a_ : position_b_;
         const Image& residual = side == 0 ? residual_a_ : residual_b_;
-        planes.insert(planes.end(), {position[0], position[1]});
-        run.operator()<2>(residual, residual, 1.0f, 0.0f);
+        run.operator()<0, false>(residual, residual, 1.0f, 0.0f);
         return out;
     }
-    planes.insert(planes.end(), {position_a_[0], position_a_[1], position_b_[0], position_b_[1]});
     if (s.kind == ScheduleKind::aware) {
         // Each T_J sample's weights from the pixel agreement and the residuals' local energies at
         // its place in A (placed_, measured once), rendered with the frame.
@@ -503,30 +505,28 @@ Image Morph::with_residuals(const RenderPlan& plan, std::vector<std::span<const 
             },
             16384);
         planes.insert(planes.end(), {wa, wb});
-        run.operator()<6>(residual_a_, residual_b_, 0.0f, 0.0f);
+        run.operator()<2, true>(residual_a_, residual_b_, 0.0f, 0.0f);
         return out;
     }
     if (s.kind != ScheduleKind::sharp) {  // linear and bands: the finest band's weight
-        run.operator()<4>(residual_a_, residual_b_, 1 - x, x);
+        run.operator()<0, true>(residual_a_, residual_b_, 1 - x, x);
         return out;
     }
     // sharp: the residual is the finest band, rescaled like the others by energies over the
     // whole frame, so the warped residuals are kept for a second pass.
     const size_t n = out.planes[0].size();
     std::vector<std::vector<float>> ra(channels, std::vector<float>(n)), rb = ra;
-    const std::span<const std::span<const float>> colour(planes.data(),
-                                                         static_cast<size_t>(channels));
-    render_into(plan, colour, out);
-    render_each<4>(
-        plan, std::span(planes).subspan(static_cast<size_t>(channels)),
-        [&](int32_t px, const float* at) {
-            const Tap ta = bilinear_tap(residual_a_.width, residual_a_.height, 1.0, {at[0], at[1]});
-            const Tap tb = bilinear_tap(residual_b_.width, residual_b_.height, 1.0, {at[2], at[3]});
-            for (int c = 0; c < channels; ++c) {
-                ra[c][px] = bilinear_at(ta, residual_a_.planes[c].data());
-                rb[c][px] = bilinear_at(tb, residual_b_.planes[c].data());
-            }
-        });
+    render_into(plan, planes, out);
+    render_each<0>(plan, {}, [&](int32_t px, const float*, PlanPlace at) {
+        const Tap ta = bilinear_tap(residual_a_.width, residual_a_.height, 1.0,
+                                    quads_a_[at.quad].at(at.u, at.v));
+        const Tap tb = bilinear_tap(residual_b_.width, residual_b_.height, 1.0,
+                                    quads_b_[at.quad].at(at.u, at.v));
+        for (int c = 0; c < channels; ++c) {
+            ra[c][px] = bilinear_at(ta, residual_a_.planes[c].data());
+            rb[c][px] = bilinear_at(tb, residual_b_.planes[c].data());
+        }
+    });
     for (int c = 0; c < channels; ++c) {
         double ea = 0, eb = 0, e = 0;
         for (size_t i = 0; i < n; ++i) {

@@ -49,6 +49,15 @@ void check_sample_estimate(const std::string& name, int width, int height, doubl
 void check_samples(const std::string& name, const Mesh& mesh, int width, int height,
                    const MorphOptions& options);
 
+// A T1 quad's bilinear map in floats, p(u, v) = (x, y) + u a + v b + u v c: where a frame's pixel
+// lies in A and in B (the mesh map, from the pixel's place in its quad, render.h's PlanPlace).
+struct QuadMap {
+    float x, y, ax, ay, bx, by, cx, cy;
+    Vec2 at(float u, float v) const {
+        return {x + u * ax + v * bx + u * v * cx, y + u * ay + v * by + u * v * cy};
+    }
+};
+
 struct FrameOptions {
     bool preview = false;  // render the coarse levels only (J - 2, at least 1): fast look-ups
 };
@@ -103,9 +112,8 @@ class Morph {
     Hierarchy hierarchy_, preview_;  // levels J and the preview level
     std::vector<std::vector<float>> samples_a_, samples_b_, coeff_a_, coeff_b_;
     std::vector<std::vector<double>> energy_a_, energy_b_;  // [channel][detail level]
-    Image residual_a_, residual_b_;                         // image minus its resampling
-    std::vector<std::vector<float>> position_a_,
-        position_b_;  // T_J sample positions (x, y), each image's pixels
+    Image residual_a_, residual_b_;                         // each image minus its resampling
+    std::vector<QuadMap> quads_a_, quads_b_;                // in A's pixels and in B's
     // aware: per detail coefficient, the local energies of A's and B's detail and their inner
     // product (over channels, smoothed over the coefficient's neighbourhood on its level).
     std::vector<float> local_a_, local_b_, local_ab_;

@@ -8,6 +8,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <span>
+#include <type_traits>
 #include <vector>
 
 #include "core/math/hierarchy.h"
@@ -62,18 +63,26 @@ std::vector<size_t> plan_entry_starts(const RenderPlan& plan);
 void check_render_planes(const RenderPlan& plan, std::span<const std::span<const float>> planes,
                          int count = 0);
 
+// Where a pixel lies: its T1 quad (in t1_quads' order) and its (u, v) in that quad's bilinear
+// map, from the plan's cell and fractions (float precision).
+struct PlanPlace {
+    int32_t quad = 0;
+    float u = 0, v = 0;
+};
+
 // Calls f(pixel, values) for every pixel the plan renders, values[c] being what render() gives
 // planes[c] there, to the bit: render_into itself, and callers that use the rendered values at
 // once (a warp through the mesh map) instead of keeping images of them. C is the plane count (0:
 // planes.size(), any; a fixed count unrolls the channel loop). One quad at a time: its grid values
 // of every plane staged side by side (the next quad's asked for meanwhile), then its pixel runs
 // read their plan entries once. The quads are shared among the cores, so f runs concurrently,
-// once for each pixel.
+// once for each pixel. An f that takes a third argument gets the pixel's PlanPlace too.
 template <int C, class F>
 void render_each(const RenderPlan& plan, std::span<const std::span<const float>> planes, F&& f) {
     check_render_planes(plan, planes, C);
     const std::vector<size_t> starts = plan_entry_starts(plan);
     const int32_t side = plan.cells + 1, grid_size = side * side;
+    const float inverse_m = 1.0f / static_cast<float>(plan.cells);
     const size_t channels = C > 0 ? static_cast<size_t>(C) : planes.size();
     parallel_for(
         static_cast<int64_t>(plan.quad_runs.size()) - 1,
@@ -111,7 +120,15 @@ void render_each(const RenderPlan& plan, std::span<const std::span<const float>>
                             const float bottom = v[side] + (v[side + 1] - v[side]) * s;
                             values[c] = top + (bottom - top) * r;
                         }
-                        f(start + n, static_cast<const float*>(values));
+                        if constexpr (std::is_invocable_v<F, int32_t, const float*, PlanPlace>) {
+                            const int32_t cell = plan.cell[i], row = cell / side;
+                            f(start + n, static_cast<const float*>(values),
+                              PlanPlace{static_cast<int32_t>(q),
+                                        (static_cast<float>(cell - row * side) + s) * inverse_m,
+                                        (static_cast<float>(row) + r) * inverse_m});
+                        } else {
+                            f(start + n, static_cast<const float*>(values));
+                        }
                     }
                 }
             }
