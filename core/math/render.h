@@ -113,9 +113,8 @@ void render_each(const RenderPlan& plan, std::span<const std::span<const float>>
                     const int32_t start = plan.run_start[run], length = plan.run_length[run];
                     for (int32_t n = 0; n < length; ++n, ++i) {
                         const float s = plan.st[i][0] * kUnit, r = plan.st[i][1] * kUnit;
-                        const float* v = local.data() + plan.cell[i];
-                        for (size_t c = 0; c < (C > 0 ? static_cast<size_t>(C) : channels);
-                             ++c, v += grid_size) {
+                        for (size_t c = 0; c < (C > 0 ? static_cast<size_t>(C) : channels); ++c) {
+                            const float* v = local.data() + c * grid_size + plan.cell[i];
                             const float top = v[0] + (v[1] - v[0]) * s;
                             const float bottom = v[side] + (v[side + 1] - v[side]) * s;
                             values[c] = top + (bottom - top) * r;
