@@ -15,6 +15,7 @@
 #include "core/math/project.h"
 #include "core/math/render.h"
 #include "schedule.h"
+#include "warp.h"
 
 namespace tesswave::morph {
 
@@ -48,15 +49,6 @@ void check_sample_estimate(const std::string& name, int width, int height, doubl
                            int levels);
 void check_samples(const std::string& name, const Mesh& mesh, int width, int height,
                    const MorphOptions& options);
-
-// A T1 quad's bilinear map in floats, p(u, v) = (x, y) + u a + v b + u v c: where a frame's pixel
-// lies in A and in B (the mesh map, from the pixel's place in its quad, render.h's PlanPlace).
-struct QuadMap {
-    float x, y, ax, ay, bx, by, cx, cy;
-    Vec2 at(float u, float v) const {
-        return {x + u * ax + v * bx + u * v * cx, y + u * ay + v * by + u * v * cy};
-    }
-};
 
 struct FrameOptions {
     bool preview = false;  // render the coarse levels only (J - 2, at least 1): fast look-ups
