@@ -165,9 +165,9 @@ Morph::Morph(const Image& a, const Image& b, const Mesh& mesh_a, const Mesh& mes
         quads_b_ = quad_maps(t1_quads(hierarchy_, mesh_b.vertices));
     }
     const Image image_a = with_channels(a, channels), image_b = with_channels(b, channels);
-    std::vector<RenderPlan> plan_a;  // aware: A's plan, for warping B to A below
+    std::vector<RenderPlan> plans;  // aware: A's and B's, for warping each image to the other
     for (int k = 0; k < 2; ++k) {
-        if (!options_.residual && !(aware && k == 0)) continue;
+        if (!options_.residual && !aware) break;
         const Image& image = k == 0 ? image_a : image_b;
         const Mesh& mesh = k == 0 ? mesh_a : mesh_b;
         RenderPlan plan = plan_render(hierarchy_, mesh.vertices, mesh.width, mesh.height,
@@ -182,29 +182,36 @@ Morph::Morph(const Image& a, const Image& b, const Mesh& mesh_a, const Mesh& mes
             }
             (k == 0 ? residual_a_ : residual_b_) = std::move(r);
         }
-        if (aware && k == 0) plan_a.push_back(std::move(plan));
+        if (aware) plans.push_back(std::move(plan));
     }
     if (aware) {
-        // Per pixel of A, then read at each T_J sample's place in A (placed_).
+        // placed_: per T_J sample, the pixel agreement of A's and B's detail measured in A's
+        // pixels (B warped to A) and in B's (A warped to B), each read at the sample's place
+        // there, and their mean, so that A and B count alike; with the residual warp, the
+        // residuals' local energies in A's pixels.
         std::vector<std::vector<float>> maps;
         maps.push_back(std::move(
-            detail_agreement(image_a, warped_through(plan_a[0], quads_b_, image_b)).planes[0]));
+            detail_agreement(image_a, warped_through(plans[0], quads_b_, image_b)).planes[0]));
         if (options_.residual) {
             for (auto& plane :
-                 residual_energies(residual_a_, warped_through(plan_a[0], quads_b_, residual_b_))) {
+                 residual_energies(residual_a_, warped_through(plans[0], quads_b_, residual_b_))) {
                 maps.push_back(std::move(plane));
             }
         }
-        const std::vector<Vec2> position = refine_positions(hierarchy_, mesh_a.vertices, J);
-        const size_t n = position.size();
+        const Image in_b = detail_agreement(image_b, warped_through(plans[1], quads_a_, image_a));
+        const std::vector<Vec2> position_a = refine_positions(hierarchy_, mesh_a.vertices, J);
+        const std::vector<Vec2> position_b = refine_positions(hierarchy_, mesh_b.vertices, J);
+        const size_t n = position_a.size();
         placed_.assign(maps.size(), std::vector<float>(n));
         parallel_for(
             static_cast<int64_t>(n),
             [&](int64_t begin, int64_t end) {
                 for (int64_t i = begin; i < end; ++i) {
-                    const Tap tap = bilinear_tap(image_a.width, image_a.height, 1.0, position[i]);
+                    const Tap ta = bilinear_tap(image_a.width, image_a.height, 1.0, position_a[i]);
                     for (size_t k = 0; k < maps.size(); ++k)
-                        placed_[k][i] = bilinear_at(tap, maps[k].data());
+                        placed_[k][i] = bilinear_at(ta, maps[k].data());
+                    const Tap tb = bilinear_tap(image_b.width, image_b.height, 1.0, position_b[i]);
+                    placed_[0][i] = 0.5f * (placed_[0][i] + bilinear_at(tb, in_b.planes[0].data()));
                 }
             },
             16384);
