@@ -11,8 +11,8 @@
 //   aware   (the default) ghost-aware: per band and per place, detail that corresponds in A and B
 //           (the two agree after the warp: their local correlation c is near 1, on the band
 //           itself, pooled with the two coarser bands at that place, or in the two images' pixel
-//           detail around that place, B warped to A; the band finer than the mesh takes the
-//           last alone) follows t and keeps its
+//           detail around that place, each warped to the other; the band finer than the mesh
+//           takes the last alone) follows t and keeps its
 //           energy, as in sharp; detail that does not correspond (c near 0) is handed
 //           over on the band's bands-window with both weights squared, (1 - h)^2 and h^2, so
 //           mid-way each image keeps a quarter of its amplitude instead of half: a faint trace,
