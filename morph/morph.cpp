@@ -187,8 +187,8 @@ Morph::Morph(const Image& a, const Image& b, const Mesh& mesh_a, const Mesh& mes
     if (aware) {
         // placed_: per T_J sample, the pixel agreement of A's and B's detail measured in A's
         // pixels (B warped to A) and in B's (A warped to B), each read at the sample's place
-        // there, and their mean, so that A and B count alike; with the residual warp, the
-        // residuals' local energies in A's pixels.
+        // there, and how far their mean counts as corresponding, so that A and B count alike;
+        // with the residual warp, the residuals' local energies in A's pixels.
         std::vector<std::vector<float>> maps;
         maps.push_back(std::move(
             detail_agreement(image_a, warped_through(plans[0], quads_b_, image_b)).planes[0]));
@@ -211,7 +211,9 @@ Morph::Morph(const Image& a, const Image& b, const Mesh& mesh_a, const Mesh& mes
                     for (size_t k = 0; k < maps.size(); ++k)
                         placed_[k][i] = bilinear_at(ta, maps[k].data());
                     const Tap tb = bilinear_tap(image_b.width, image_b.height, 1.0, position_b[i]);
-                    placed_[0][i] = 0.5f * (placed_[0][i] + bilinear_at(tb, in_b.planes[0].data()));
+                    const double mean =
+                        0.5 * (placed_[0][i] + bilinear_at(tb, in_b.planes[0].data()));
+                    placed_[0][i] = static_cast<float>(corresponding(mean));
                 }
             },
             16384);
@@ -329,7 +331,7 @@ void Morph::measure_agreement() {
                         aa > 0 && bb > 0 ? std::clamp(ab / std::sqrt(aa * bb), 0.0, 1.0) : 0.0;
                     corresponding_[i] = static_cast<float>(
                         std::max({corresponding(correspondence(static_cast<int32_t>(i))),
-                                  corresponding(pooled), corresponding(double{placed_[0][i]})}));
+                                  corresponding(pooled), double{placed_[0][i]}}));
                 }
             },
             4096);
@@ -368,20 +370,28 @@ Planes Morph::blended(double t) const {
                 end - begin,
                 [&](int64_t from, int64_t to) {
                     const size_t n = static_cast<size_t>(to - from), first = begin + from;
-                    std::vector<float> weights(2 * n);  // A's, then B's
+                    // A's weights, then B's; kept per thread, so it is allocated (and zeroed) once.
+                    thread_local std::vector<float> weights;
+                    if (weights.size() < 2 * n) weights.resize(2 * n);
+                    // Plain pointers and locals, not the members and the closure's references,
+                    // so that the loops vectorize.
+                    float* __restrict wa = weights.data();
+                    float* __restrict wb = wa + n;
+                    const float* __restrict k = corresponding_.data() + first;
+                    const float* __restrict la = local_a_.data() + first;
+                    const float* __restrict lb = local_b_.data() + first;
+                    const float* __restrict lab = local_ab_.data() + first;
+                    const float t1 = tf, h1 = haf, h2 = hbf;
                     for (size_t i = 0; i < n; ++i) {
-                        const auto [x, y] =
-                            aware_weights(corresponding_[first + i], local_a_[first + i],
-                                          local_b_[first + i], local_ab_[first + i], tf, haf, hbf);
-                        weights[i] = x;
-                        weights[n + i] = y;
+                        const auto [x, y] = aware_weights(k[i], la[i], lb[i], lab[i], t1, h1, h2);
+                        wa[i] = x;
+                        wb[i] = y;
                     }
                     for (size_t c = 0; c < channels; ++c) {
                         const float* a = coeff_a_[c].data() + first;
                         const float* b = coeff_b_[c].data() + first;
                         float* out = w[c].data() + first;
-                        for (size_t i = 0; i < n; ++i)
-                            out[i] = weights[i] * a[i] + weights[n + i] * b[i];
+                        for (size_t i = 0; i < n; ++i) out[i] = wa[i] * a[i] + wb[i] * b[i];
                     }
                 },
                 32768);
@@ -392,9 +402,13 @@ Planes Morph::blended(double t) const {
             parallel_for(
                 end - begin,
                 [&](int64_t from, int64_t to) {
+                    const float xb = x, xa = 1 - x;  // locals, so that the loop vectorizes
+                    const size_t first = begin + from, n = static_cast<size_t>(to - from);
                     for (size_t c = 0; c < channels; ++c) {
-                        for (int64_t i = begin + from; i < begin + to; ++i)
-                            w[c][i] = (1 - x) * coeff_a_[c][i] + x * coeff_b_[c][i];
+                        const float* __restrict a = coeff_a_[c].data() + first;
+                        const float* __restrict b = coeff_b_[c].data() + first;
+                        float* __restrict out = w[c].data() + first;
+                        for (size_t i = 0; i < n; ++i) out[i] = xa * a[i] + xb * b[i];
                     }
                 },
                 32768);
@@ -450,10 +464,17 @@ Image Morph::with_residuals(const RenderPlan& plan, std::vector<std::span<const 
         parallel_for(
             static_cast<int64_t>(n),
             [&](int64_t begin, int64_t end) {
+                // Plain pointers and locals, so that the loop vectorizes.
+                const float t1 = tf, h1 = haf, h2 = hbf;
+                const float* __restrict k = placed_[0].data();
+                const float* __restrict aa = placed_[1].data();
+                const float* __restrict bb = placed_[2].data();
+                const float* __restrict ab = placed_[3].data();
+                float* __restrict xa = wa.get();
+                float* __restrict xb = wb.get();
                 for (int64_t i = begin; i < end; ++i) {
-                    const auto [ka, kb] = aware_weights(corresponding(placed_[0][i]), placed_[1][i],
-                                                        placed_[2][i], placed_[3][i], tf, haf, hbf);
-                    wa[i] = ka, wb[i] = kb;
+                    const auto [ka, kb] = aware_weights(k[i], aa[i], bb[i], ab[i], t1, h1, h2);
+                    xa[i] = ka, xb[i] = kb;
                 }
             },
             16384);
