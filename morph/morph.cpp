@@ -355,7 +355,8 @@ Planes Morph::blended(double t) const {
     const int J = levels();
     const Schedule& s = options_.schedule;
     const size_t channels = coeff_a_.size();
-    Planes w(channels, std::vector<float>(coeff_a_[0].size()));
+    Planes w(channels);  // every value is written below
+    for (auto& plane : w) plane.resize(coeff_a_[0].size());
     for (int level = 0; level <= J; ++level) {
         const int32_t begin = level == 0 ? 0 : hierarchy_.num_samples(level - 1);
         const int32_t end = hierarchy_.num_samples(level == 0 ? 0 : level);

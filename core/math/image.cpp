@@ -7,7 +7,9 @@ Image make_image(int width, int height, int channels, SampleFormat format) {
     image.width = width;
     image.height = height;
     image.format = format;
-    image.planes.assign(channels, std::vector<float>(static_cast<size_t>(width) * height, 0.0f));
+    // Each plane zeroed in place (assigning copies of one zeroed plane would write each twice).
+    image.planes.resize(static_cast<size_t>(channels));
+    for (auto& plane : image.planes) plane.resize(static_cast<size_t>(width) * height);
     return image;
 }
 
