@@ -370,29 +370,31 @@ Planes Morph::blended(double t) const {
             parallel_for(
                 end - begin,
                 [&](int64_t from, int64_t to) {
-                    const size_t n = static_cast<size_t>(to - from), first = begin + from;
-                    // A's weights, then B's; kept per thread, so it is allocated (and zeroed) once.
-                    thread_local std::vector<float> weights;
-                    if (weights.size() < 2 * n) weights.resize(2 * n);
+                    // In runs of at most kRun coefficients: their weights (A's, B's) on the stack.
                     // Plain pointers and locals, not the members and the closure's references,
                     // so that the loops vectorize.
-                    float* __restrict wa = weights.data();
-                    float* __restrict wb = wa + n;
-                    const float* __restrict k = corresponding_.data() + first;
-                    const float* __restrict la = local_a_.data() + first;
-                    const float* __restrict lb = local_b_.data() + first;
-                    const float* __restrict lab = local_ab_.data() + first;
+                    constexpr size_t kRun = 1024;
+                    float wa[kRun], wb[kRun];
                     const float t1 = tf, h1 = haf, h2 = hbf;
-                    for (size_t i = 0; i < n; ++i) {
-                        const auto [x, y] = aware_weights(k[i], la[i], lb[i], lab[i], t1, h1, h2);
-                        wa[i] = x;
-                        wb[i] = y;
-                    }
-                    for (size_t c = 0; c < channels; ++c) {
-                        const float* a = coeff_a_[c].data() + first;
-                        const float* b = coeff_b_[c].data() + first;
-                        float* out = w[c].data() + first;
-                        for (size_t i = 0; i < n; ++i) out[i] = wa[i] * a[i] + wb[i] * b[i];
+                    for (size_t first = begin + from; first < static_cast<size_t>(begin + to);
+                         first += kRun) {
+                        const size_t n = std::min(kRun, static_cast<size_t>(begin + to) - first);
+                        const float* __restrict k = corresponding_.data() + first;
+                        const float* __restrict la = local_a_.data() + first;
+                        const float* __restrict lb = local_b_.data() + first;
+                        const float* __restrict lab = local_ab_.data() + first;
+                        for (size_t i = 0; i < n; ++i) {
+                            const auto [x, y] =
+                                aware_weights(k[i], la[i], lb[i], lab[i], t1, h1, h2);
+                            wa[i] = x;
+                            wb[i] = y;
+                        }
+                        for (size_t c = 0; c < channels; ++c) {
+                            const float* a = coeff_a_[c].data() + first;
+                            const float* b = coeff_b_[c].data() + first;
+                            float* out = w[c].data() + first;
+                            for (size_t i = 0; i < n; ++i) out[i] = wa[i] * a[i] + wb[i] * b[i];
+                        }
                     }
                 },
                 32768);
@@ -459,6 +461,8 @@ Image Morph::with_residuals(const RenderPlan& plan, std::vector<std::span<const 
         const auto [ha, hb] = handover_weights(s.handover(J + 1, J + 2, t), 2.0);
         const float tf = static_cast<float>(t), haf = static_cast<float>(ha),
                     hbf = static_cast<float>(hb);
+        // placed_ holds the residuals' energies whenever the residual warp is on (the constructor).
+        if (placed_.size() != 4) throw Error("morph: the residual band's measures are missing");
         const size_t n = placed_[0].size();
         // Every value is written below: no zeroing of 8 bytes a sample first.
         const std::unique_ptr<float[]> wa(new float[n]), wb(new float[n]);

@@ -4,11 +4,25 @@
 #include <cmath>
 #include <opencv2/imgproc.hpp>
 
+#include "core/math/error.h"
 #include "core/math/sampling.h"
+#include "core/math/strings.h"
 
 namespace tesswave::morph {
 
+namespace {
+
+void check_same_size(const Image& a, const Image& b, const char* what) {
+    if (a.width != b.width || a.height != b.height || a.channels() != b.channels()) {
+        throw Error(str(what, ": the images differ (", a.width, "x", a.height, "x", a.channels(),
+                        " and ", b.width, "x", b.height, "x", b.channels(), ")"));
+    }
+}
+
+}  // namespace
+
 Image detail_agreement(const Image& a, const Image& b) {
+    check_same_size(a, b, "detail agreement");
     const int W = a.width, H = a.height;
     cv::Mat sums[3];  // aa, bb, ab
     for (cv::Mat& m : sums) m = cv::Mat::zeros(H, W, CV_32F);
@@ -37,6 +51,7 @@ Image detail_agreement(const Image& a, const Image& b) {
 }
 
 std::vector<std::vector<float>> residual_energies(const Image& ra, const Image& rb) {
+    check_same_size(ra, rb, "residual energies");
     const int W = ra.width, H = ra.height;
     std::vector<std::vector<float>> out;
     for (int k = 0; k < 3; ++k) {

@@ -32,6 +32,7 @@ Image warped_through(const RenderPlan& plan, std::span<const QuadMap> quads, con
 // Per pixel, how far the detail of a and b (the same size) agrees: detail is each image minus its
 // 5x5 box mean, and c = max(0, <Da, Db> / (|Da| |Db|)) over the colour channels and a 9x9 window
 // (the definition compare-morph measures a middle frame with, core/eval/peer_morph.h). One plane.
+// Throws Error when the images differ in size or channels (as residual_energies does).
 Image detail_agreement(const Image& a, const Image& b);
 
 // Three planes per pixel: the local energies of the residuals ra and rb (the same size) and their

@@ -43,7 +43,7 @@ bool row_span(const Quad& q, double yc, int& first, int& last) {
 // x - whole is exact), without a call to libm.
 inline uint16_t fixed16(double f) {
     const double x = f * 65536.0;
-    const auto whole = static_cast<int32_t>(x);  // f is in [0, 1]: x fits
+    const auto whole = static_cast<int32_t>(x);  // f is in [0, 1] (plan_run clamps u and v)
     const int32_t rounded = whole + (x - static_cast<double>(whole) >= 0.5);
     return static_cast<uint16_t>(std::min<int32_t>(65535, rounded));
 }
@@ -59,7 +59,9 @@ void plan_run(const QuadInverse& inverse, int32_t first, int32_t length, int32_t
         const int32_t n = std::min(kChunk, length - done);
         inverse.row(first + done + 0.5, k + 0.5, n, u, v);
         for (int32_t j = 0; j < n; ++j) {
-            const double s = u[j] * m, r = v[j] * m;
+            // A degenerate quad can leave u outside [0, 1] (QuadInverse keeps the raw root when no
+            // root scores): clamped, so that the cell and the fractions stay in range.
+            const double s = std::clamp(u[j], 0.0, 1.0) * m, r = std::clamp(v[j], 0.0, 1.0) * m;
             const int32_t c0 = std::min(static_cast<int32_t>(s), m - 1);
             const int32_t r0 = std::min(static_cast<int32_t>(r), m - 1);
             cell[done + j] = r0 * side + c0;
