@@ -154,17 +154,15 @@ Morph::Morph(const Image& a, const Image& b, const Mesh& mesh_a, const Mesh& mes
     preview_ = build_hierarchy(topology_, {.levels = std::max(1, J - 2), .finest_topology = false});
     const int channels = (a.channels() == 4 && b.channels() == 4) ? 4 : 3;
     report(options.progress, 0.2, "sampling");
-    samples_a_ =
-        place_image(with_channels(a, channels), hierarchy_, mesh_a.vertices, options.sampling);
-    samples_b_ =
-        place_image(with_channels(b, channels), hierarchy_, mesh_b.vertices, options.sampling);
+    const Image image_a = with_channels(a, channels), image_b = with_channels(b, channels);
+    samples_a_ = place_image(image_a, hierarchy_, mesh_a.vertices, options.sampling);
+    samples_b_ = place_image(image_b, hierarchy_, mesh_b.vertices, options.sampling);
     report(options.progress, 0.5, "residuals");
     const bool aware = options_.schedule.kind == ScheduleKind::aware;
     if (options_.residual || aware) {
         quads_a_ = quad_maps(t1_quads(hierarchy_, mesh_a.vertices));
         quads_b_ = quad_maps(t1_quads(hierarchy_, mesh_b.vertices));
     }
-    const Image image_a = with_channels(a, channels), image_b = with_channels(b, channels);
     std::vector<RenderPlan> plans;  // aware: A's and B's, for warping each image to the other
     for (int k = 0; k < 2; ++k) {
         if (!options_.residual && !aware) break;
@@ -495,29 +493,21 @@ Image Morph::with_residuals(const RenderPlan& plan, std::vector<std::span<const 
     // sharp: the residual is the finest band, rescaled like the others by energies over the
     // whole frame, so the warped residuals are kept for a second pass.
     const size_t n = out.planes[0].size();
-    std::vector<std::vector<float>> ra(channels, std::vector<float>(n)), rb = ra;
     render_into(plan, planes, out);
-    render_each<0>(plan, {}, [&](int32_t px, const float*, PlanPlace at) {
-        const Tap ta = bilinear_tap(residual_a_.width, residual_a_.height, 1.0,
-                                    quads_a_[at.quad].at(at.u, at.v));
-        const Tap tb = bilinear_tap(residual_b_.width, residual_b_.height, 1.0,
-                                    quads_b_[at.quad].at(at.u, at.v));
-        for (int c = 0; c < channels; ++c) {
-            ra[c][px] = bilinear_at(ta, residual_a_.planes[c].data());
-            rb[c][px] = bilinear_at(tb, residual_b_.planes[c].data());
-        }
-    });
+    const Image warped_a = warped_through(plan, quads_a_, residual_a_);
+    const Image warped_b = warped_through(plan, quads_b_, residual_b_);
     for (int c = 0; c < channels; ++c) {
+        const std::vector<float>& ra = warped_a.planes[c];
+        const std::vector<float>& rb = warped_b.planes[c];
         double ea = 0, eb = 0, e = 0;
         for (size_t i = 0; i < n; ++i) {
-            const double blend = (1 - x) * ra[c][i] + x * rb[c][i];
-            ea += double{ra[c][i]} * ra[c][i];
-            eb += double{rb[c][i]} * rb[c][i];
+            const double blend = (1 - x) * ra[i] + x * rb[i];
+            ea += double{ra[i]} * ra[i];
+            eb += double{rb[i]} * rb[i];
             e += blend * blend;
         }
         const float gain = e > 0 ? static_cast<float>(std::sqrt(((1 - x) * ea + x * eb) / e)) : 1;
-        for (size_t i = 0; i < n; ++i)
-            out.planes[c][i] += gain * ((1 - x) * ra[c][i] + x * rb[c][i]);
+        for (size_t i = 0; i < n; ++i) out.planes[c][i] += gain * ((1 - x) * ra[i] + x * rb[i]);
     }
     return out;
 }
