@@ -116,6 +116,44 @@ TEST(Render, render_each_gives_what_render_writes) {
     }
 }
 
+// Planes staged side by side (2 to 8, in SSE groups of four) or one after the other (1, or a count
+// known at run time) render each plane as it renders alone, to the bit.
+template <int C>
+void expect_each_plane_as_alone(const RenderPlan& plan, const std::vector<std::vector<float>>& x,
+                                const std::vector<Image>& alone) {
+    SCOPED_TRACE(C);
+    const std::vector<std::span<const float>> planes(x.begin(), x.begin() + (C > 0 ? C : 6));
+    std::vector<std::vector<float>> got(planes.size(),
+                                        std::vector<float>(alone[0].planes[0].size(), NAN));
+    render_each<C>(plan, planes, [&](int32_t px, const float* v) {
+        for (size_t c = 0; c < planes.size(); ++c) got[c][px] = v[c];
+    });
+    for (size_t c = 0; c < planes.size(); ++c) {
+        EXPECT_EQ(0, std::memcmp(got[c].data(), alone[c].planes[0].data(), got[c].size() * 4))
+            << "plane " << c;
+    }
+}
+
+TEST(Render, every_channel_count_renders_each_plane_as_alone) {
+    const Mesh mesh = testing::deformed_grid(97, 61, 4, 3, 0.22, 3);
+    const Hierarchy h = build_hierarchy(mesh, {.levels = 3});
+    const RenderPlan plan = plan_render(h, mesh.vertices, 97, 61, 131, 77);
+    std::vector<std::vector<float>> x(8, std::vector<float>(h.num_samples(3)));
+    std::vector<Image> alone;
+    for (size_t c = 0; c < x.size(); ++c) {
+        for (size_t k = 0; k < x[c].size(); ++k) {
+            x[c][k] = std::sin(0.37f * k + c) * std::ldexp(1.0f, (k + c) % 13 - 6);
+        }
+        const std::span<const float> one[] = {x[c]};
+        alone.push_back(render(plan, one, SampleFormat::f32));
+    }
+    expect_each_plane_as_alone<2>(plan, x, alone);
+    expect_each_plane_as_alone<3>(plan, x, alone);
+    expect_each_plane_as_alone<5>(plan, x, alone);
+    expect_each_plane_as_alone<8>(plan, x, alone);
+    expect_each_plane_as_alone<0>(plan, x, alone);
+}
+
 TEST(Render, rejects_bad_sizes_and_levels) {
     const Mesh mesh = samples::paper_t0(97, 61);
     const Hierarchy h = build_hierarchy(mesh, {.levels = 2});
