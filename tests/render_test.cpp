@@ -8,6 +8,7 @@
 
 #include "core/math/grid_mesh.h"
 #include "core/math/parallel.h"
+#include "core/math/parametrization.h"
 #include "core/math/sampling.h"
 #include "core/math/voronoi.h"
 #include "samples/sample_images.h"
@@ -240,6 +241,44 @@ TEST(Sampling, cells_about_a_pixel_read_the_image_alone) {
     EXPECT_GT(differs(288, 216), differs(276, 206));  // 1.125 x 1.125
     EXPECT_GT(differs(341, 256), 0.01);               // 1.33 x 1.33
     EXPECT_GT(differs(512, 384), differs(341, 256));  // 2 x 2
+}
+
+// Every inner node of a quad (the vector rows read those) is the bilinear tap of the image at the
+// quad's bilinear map, lerp(lerp(q0, q3, r/m), lerp(q1, q2, r/m), c/m), to the bit: one and three
+// channels, and nodes past the image's border (the mesh is stretched over it) clamped.
+TEST(Sampling, inner_nodes_are_the_bilinear_tap_to_the_bit) {
+    const Mesh mesh = testing::deformed_grid(97, 61, 4, 3, 0.22, 3);
+    const Hierarchy h = build_hierarchy(mesh, {.levels = 4});
+    std::vector<Vec2> stretched = mesh.vertices;
+    for (Vec2& v : stretched) v = {1.1 * v.x - 4.85, 1.1 * v.y - 3.05};
+    const std::vector<Quad> quads = t1_quads(h, stretched);
+    const int32_t m = h.levels[4].patch_cells, side = m + 1;
+    const Image scene = samples::scene_image(97, 61);
+    for (int channels : {1, 3}) {
+        SCOPED_TRACE(channels);
+        Image image = make_image(97, 61, channels, SampleFormat::f32);
+        for (int c = 0; c < channels; ++c) image.planes[c] = scene.planes[c];
+        const auto got = sample_image(image, h, stretched, {.prefilter = false});
+        size_t clamped = 0;
+        for (size_t p = 0; p < quads.size(); ++p) {
+            const Quad& q = quads[p];
+            for (int32_t r = 1; r < m; ++r) {
+                const Vec2 left = lerp(q[0], q[3], double(r) / m);
+                const Vec2 right = lerp(q[1], q[2], double(r) / m);
+                for (int32_t c = 1; c < m; ++c) {
+                    const Vec2 at = lerp(left, right, double(c) / m);
+                    const Tap tap = bilinear_tap(97, 61, 1.0, at);
+                    clamped += at.x < 0.5 || at.y < 0.5 || at.x > 96.5 || at.y > 60.5;
+                    const int32_t id = h.levels[4].patch_grid[(p * side + r) * side + c];
+                    for (int ch = 0; ch < channels; ++ch) {
+                        ASSERT_EQ(got[ch][id], bilinear_at(tap, image.planes[ch].data()))
+                            << "quad " << p << " node " << r << "," << c;
+                    }
+                }
+            }
+        }
+        EXPECT_GT(clamped, 0u);
+    }
 }
 
 // Quads are shared among the cores; a sample on a border between quads read at different

@@ -10,6 +10,10 @@
 #include "core/math/parametrization.h"
 #include "core/math/strings.h"
 
+#if defined(__x86_64__)
+#include <immintrin.h>
+#endif
+
 namespace tesswave {
 namespace {
 
@@ -43,6 +47,70 @@ double pyramid_level(double size, int top) {
     const double from = std::log2(kNoBlend);
     return lod <= from ? 0.0 : std::min((lod - from) / (1 - from), double(top));
 }
+
+#if defined(__x86_64__)
+// Grid nodes c in [from, to) of one row of a quad, four at a time, read from `image` alone (no
+// pyramid blend): the node at lerp(left, right, t[c]), as bilinear_tap and bilinear_at read it,
+// the same operations in the same order (the clamps as std::clamp compares), so the same bits.
+// The image is at least 2x2 pixels, so that a node's right and lower pixels are the next ones (x1 =
+// x0 + 1, y1 = y0 + 1), and its pixel count fits int32 (the caller checks). Returns how many nodes
+// it did: all of them, or none when there are fewer than four.
+[[gnu::target("avx2")]] int32_t sample_row_avx2(const Image& image, double inv_size, Vec2 left,
+                                                Vec2 right, const double* t, int32_t from,
+                                                int32_t to, const int32_t* ids, float* const* out) {
+    const int w = image.width, h = image.height;
+    const __m256d lx = _mm256_set1_pd(left.x), dx = _mm256_set1_pd(right.x - left.x);
+    const __m256d ly = _mm256_set1_pd(left.y), dy = _mm256_set1_pd(right.y - left.y);
+    const __m256d inv = _mm256_set1_pd(inv_size), half = _mm256_set1_pd(0.5);
+    const __m256d zero = _mm256_setzero_pd();
+    const __m256d x_hi = _mm256_set1_pd(w - 1.0), y_hi = _mm256_set1_pd(h - 1.0);
+    const __m128i x0_hi = _mm_set1_epi32(std::max(w - 2, 0)),
+                  y0_hi = _mm_set1_epi32(std::max(h - 2, 0));
+    const __m128i width = _mm_set1_epi32(w);
+    const __m256i split = _mm256_setr_epi32(0, 2, 4, 6, 1, 3, 5, 7);
+    const int channels = image.channels();
+    if (to - from < 4) return 0;
+    for (int32_t next = from; next < to; next += 4) {
+        // The last four may overlap the four before: those nodes get the same values again.
+        const int32_t c = std::min(next, to - 4);
+        const __m256d tc = _mm256_loadu_pd(t + c);
+        const __m256d px = _mm256_add_pd(lx, _mm256_mul_pd(tc, dx));
+        const __m256d py = _mm256_add_pd(ly, _mm256_mul_pd(tc, dy));
+        const __m256d fx =
+            _mm256_min_pd(x_hi, _mm256_max_pd(zero, _mm256_sub_pd(_mm256_mul_pd(px, inv), half)));
+        const __m256d fy =
+            _mm256_min_pd(y_hi, _mm256_max_pd(zero, _mm256_sub_pd(_mm256_mul_pd(py, inv), half)));
+        const __m128i x0 = _mm_min_epi32(_mm256_cvttpd_epi32(fx), x0_hi);
+        const __m128i y0 = _mm_min_epi32(_mm256_cvttpd_epi32(fy), y0_hi);
+        const __m128 tx = _mm256_cvtpd_ps(_mm256_sub_pd(fx, _mm256_cvtepi32_pd(x0)));
+        const __m128 ty = _mm256_cvtpd_ps(_mm256_sub_pd(fy, _mm256_cvtepi32_pd(y0)));
+        const __m128i i00 = _mm_add_epi32(_mm_mullo_epi32(y0, width), x0);
+        const __m128i i10 = _mm_add_epi32(i00, width);
+        for (int ch = 0; ch < channels; ++ch) {
+            // Each gather reads a pixel and its right neighbour as one 64-bit pair; the pairs
+            // are then split into the left and the right pixels.
+            const float* plane = image.planes[ch].data();
+            const __m256 row0 =
+                _mm256_permutevar8x32_ps(_mm256_castsi256_ps(_mm256_i32gather_epi64(
+                                             reinterpret_cast<const long long*>(plane), i00, 4)),
+                                         split);
+            const __m256 row1 =
+                _mm256_permutevar8x32_ps(_mm256_castsi256_ps(_mm256_i32gather_epi64(
+                                             reinterpret_cast<const long long*>(plane), i10, 4)),
+                                         split);
+            const __m128 p00 = _mm256_castps256_ps128(row0), p01 = _mm256_extractf128_ps(row0, 1);
+            const __m128 p10 = _mm256_castps256_ps128(row1), p11 = _mm256_extractf128_ps(row1, 1);
+            const __m128 top = _mm_add_ps(p00, _mm_mul_ps(_mm_sub_ps(p01, p00), tx));
+            const __m128 bottom = _mm_add_ps(p10, _mm_mul_ps(_mm_sub_ps(p11, p10), tx));
+            alignas(16) float v[4];
+            _mm_store_ps(v, _mm_add_ps(top, _mm_mul_ps(_mm_sub_ps(bottom, top), ty)));
+            float* to_plane = out[ch];
+            for (int k = 0; k < 4; ++k) to_plane[ids[c + k]] = v[k];
+        }
+    }
+    return to - from;
+}
+#endif
 
 }  // namespace
 
@@ -147,6 +215,15 @@ void sample_image_into(const Image& image, const Hierarchy& h, std::span<const V
             }
         }
     }
+    std::vector<double> along(static_cast<size_t>(side));  // grid column c at c/m of a row
+    for (int32_t c = 0; c <= m; ++c) along[c] = double(c) / m;
+    std::vector<float*> planes(out.size());
+    for (size_t ch = 0; ch < out.size(); ++ch) planes[ch] = out[ch].data();
+#if defined(__x86_64__)
+    // The vector rows index pixels with int32.
+    static const bool has_avx2 = __builtin_cpu_supports("avx2");
+    const bool avx2 = has_avx2 && int64_t{image.width} * image.height <= INT32_MAX;
+#endif
     // Quad by quad along its grid rows, so that image reads stay local. Grid node (r, c) is the
     // bilinear map at (c/m, r/m): the position refinement gives it (DESIGN.md 2.2).
     const auto sample_quad = [&](size_t p) {
@@ -163,11 +240,12 @@ void sample_image_into(const Image& image, const Hierarchy& h, std::span<const V
             const Vec2 left = lerp(q[0], q[3], double(r) / m);
             const Vec2 right = lerp(q[1], q[2], double(r) / m);
             const bool border_row = r == 0 || r == m;
-            for (int32_t c = 0; c <= m; ++c) {
-                const int32_t id = grid[r * side + c];
+            const int32_t* ids = grid + r * side;
+            const auto node = [&](int32_t c) {
+                const int32_t id = ids[c];
                 if ((border_row || c == 0 || c == m) && owner[id] != static_cast<int32_t>(p))
-                    continue;
-                const Vec2 pos = lerp(left, right, double(c) / m);
+                    return;
+                const Vec2 pos = lerp(left, right, along[c]);
                 const Tap ta = bilinear_tap(a.width, a.height, inv_a, pos);
                 if (w1 == 0) {
                     for (int ch = 0; ch < channels; ++ch)
@@ -179,7 +257,17 @@ void sample_image_into(const Image& image, const Hierarchy& h, std::span<const V
                         out[ch][id] = va + (bilinear_at(tb, b.planes[ch].data()) - va) * w1;
                     }
                 }
+            };
+            int32_t c = 0;
+#if defined(__x86_64__)
+            // A row's inner nodes are the quad's alone (no owner to ask), four at a time.
+            if (avx2 && !border_row && w1 == 0 && a.width >= 2 && a.height >= 2) {
+                node(0);
+                c = 1 +
+                    sample_row_avx2(a, inv_a, left, right, along.data(), 1, m, ids, planes.data());
             }
+#endif
+            for (; c <= m; ++c) node(c);
         }
     };
     parallel_for(static_cast<int64_t>(quads.size()), [&](int64_t begin, int64_t end) {
