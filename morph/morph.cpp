@@ -47,30 +47,6 @@ T corresponding(T c) {
     return std::clamp((c - T(0.1)) / T(0.3), T(0), T(1));
 }
 
-// out = the colour planes (the first Ch of `planes`) rendered, plus the residual ra read where
-// each pixel lies in A (maps_a) and, when Both, rb where it lies in B, weighted by ka and kb or,
-// with Weights 2, by the two planes after the colour: the frame and its residual warp in one
-// pass over the plan.
-template <int Ch, int Weights, bool Both>
-void compose(const RenderPlan& plan, std::span<const std::span<const float>> planes,
-             std::span<const QuadMap> maps_a, std::span<const QuadMap> maps_b, const Image& ra,
-             const Image& rb, float ka, float kb, Image& out) {
-    render_each<Ch + Weights>(plan, planes, [&](int32_t px, const float* v, PlanPlace at) {
-        const Tap ta = bilinear_tap(ra.width, ra.height, 1.0, maps_a[at.quad].at(at.u, at.v));
-        if constexpr (!Both) {
-            for (int c = 0; c < Ch; ++c)
-                out.planes[c][px] = v[c] + ka * bilinear_at(ta, ra.planes[c].data());
-        } else {
-            const Tap tb = bilinear_tap(rb.width, rb.height, 1.0, maps_b[at.quad].at(at.u, at.v));
-            const float wa = Weights == 2 ? v[Ch] : ka, wb = Weights == 2 ? v[Ch + 1] : kb;
-            for (int c = 0; c < Ch; ++c) {
-                out.planes[c][px] = v[c] + (wa * bilinear_at(ta, ra.planes[c].data()) +
-                                            wb * bilinear_at(tb, rb.planes[c].data()));
-            }
-        }
-    });
-}
-
 // The aware schedule's weights of A and B for detail that corresponds to the degree k, with local
 // energies aa and bb and inner product ab, at t: corresponding detail follows t with its energy
 // kept (the gain, at most 2); the rest is handed over with the weights (ha, hb) of its level.
@@ -440,17 +416,15 @@ Image Morph::with_residuals(const RenderPlan& plan, std::vector<std::span<const 
     if (channels != 3 && channels != 4) throw Error("morph: frames have 3 or 4 channels");
     const float x = static_cast<float>(s.band_weight(J, J + 1, t));
     Image out = make_image(plan.width, plan.height, channels, SampleFormat::u8);
-    const auto run = [&]<int Weights, bool Both>(const Image& ra, const Image& rb, float ka,
-                                                 float kb) {
-        const auto& maps_a = Both || side == 0 ? quads_a_ : quads_b_;
-        if (channels == 4) {
-            return compose<4, Weights, Both>(plan, planes, maps_a, quads_b_, ra, rb, ka, kb, out);
-        }
-        compose<3, Weights, Both>(plan, planes, maps_a, quads_b_, ra, rb, ka, kb, out);
+    // Both: the residuals of A and B; weighted: by the two planes after the colour.
+    const auto run = [&](const Image& ra, const Image& rb, float ka, float kb, bool both,
+                         bool weighted) {
+        const auto& maps_a = both || side == 0 ? quads_a_ : quads_b_;
+        compose(plan, planes, {maps_a, quads_b_, ra, rb, ka, kb, both, weighted}, out);
     };
     if (side >= 0) {  // one endpoint alone
         const Image& residual = side == 0 ? residual_a_ : residual_b_;
-        run.operator()<0, false>(residual, residual, 1.0f, 0.0f);
+        run(residual, residual, 1.0f, 0.0f, false, false);
         return out;
     }
     if (s.kind == ScheduleKind::aware) {
@@ -483,11 +457,11 @@ Image Morph::with_residuals(const RenderPlan& plan, std::vector<std::span<const 
             16384);
         planes.insert(planes.end(),
                       {std::span<const float>(wa.get(), n), std::span<const float>(wb.get(), n)});
-        run.operator()<2, true>(residual_a_, residual_b_, 0.0f, 0.0f);
+        run(residual_a_, residual_b_, 0.0f, 0.0f, true, true);
         return out;
     }
     if (s.kind != ScheduleKind::sharp) {  // linear and bands: the finest band's weight
-        run.operator()<0, true>(residual_a_, residual_b_, 1 - x, x);
+        run(residual_a_, residual_b_, 1 - x, x, true, false);
         return out;
     }
     // sharp: the residual is the finest band, rescaled like the others by energies over the

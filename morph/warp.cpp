@@ -3,6 +3,9 @@
 #include <algorithm>
 #include <cmath>
 #include <opencv2/imgproc.hpp>
+#if defined(__x86_64__)
+#include <immintrin.h>
+#endif
 
 #include "core/math/error.h"
 #include "core/math/sampling.h"
@@ -68,12 +71,208 @@ std::vector<std::vector<float>> residual_energies(const Image& ra, const Image& 
     return out;
 }
 
+namespace {
+
+#if defined(__x86_64__)
+#define TESSWAVE_AVX2 [[gnu::target("avx2"), gnu::always_inline]] inline
+
+// bilinear_tap(w, h, 1, m.at(u, v)) for four pixels, in floats: m.at's sums as it adds them, and
+// the tap's clamps and fractions as bilinear_tap computes them in doubles. Those are exact in
+// floats for the positions of images below 2^22 pixels a side (p - 1/2 is exact from p = 1/4 on,
+// and below 1/4 it is negative either way, hence 0; f - x0 is exact as f < 2 x0 or x0 = 0), so
+// the same bits. x1 = x0 + 1 and y1 = y0 + 1 (the image is at least 2x2): i00 and tx, ty suffice.
+struct Taps4 {
+    __m128i i00, i10;
+    __m128 tx, ty;
+};
+TESSWAVE_AVX2 __m128 axis4(float o, float a, float b, float c, __m128 u, __m128 v) {
+    return _mm_add_ps(_mm_add_ps(_mm_add_ps(_mm_set1_ps(o), _mm_mul_ps(u, _mm_set1_ps(a))),
+                                 _mm_mul_ps(v, _mm_set1_ps(b))),
+                      _mm_mul_ps(_mm_mul_ps(u, v), _mm_set1_ps(c)));
+}
+TESSWAVE_AVX2 Taps4 taps4(const QuadMap& m, __m128 u, __m128 v, int w, int h) {
+    const __m128 half = _mm_set1_ps(0.5f), zero = _mm_setzero_ps();
+    const __m128 fx =
+        _mm_min_ps(_mm_set1_ps(w - 1.0f),
+                   _mm_max_ps(zero, _mm_sub_ps(axis4(m.x, m.ax, m.bx, m.cx, u, v), half)));
+    const __m128 fy =
+        _mm_min_ps(_mm_set1_ps(h - 1.0f),
+                   _mm_max_ps(zero, _mm_sub_ps(axis4(m.y, m.ay, m.by, m.cy, u, v), half)));
+    const __m128i x0 = _mm_min_epi32(_mm_cvttps_epi32(fx), _mm_set1_epi32(w - 2));
+    const __m128i y0 = _mm_min_epi32(_mm_cvttps_epi32(fy), _mm_set1_epi32(h - 2));
+    const __m128i i00 = _mm_add_epi32(_mm_mullo_epi32(y0, _mm_set1_epi32(w)), x0);
+    return {i00, _mm_add_epi32(i00, _mm_set1_epi32(w)), _mm_sub_ps(fx, _mm_cvtepi32_ps(x0)),
+            _mm_sub_ps(fy, _mm_cvtepi32_ps(y0))};
+}
+// bilinear_at(tap, plane) for the four taps: each 64-bit gather reads a pixel and its right
+// neighbour, split into the left and the right pixels.
+TESSWAVE_AVX2 __m128 fetch4(const float* plane, const Taps4& t) {
+    const __m256i split = _mm256_setr_epi32(0, 2, 4, 6, 1, 3, 5, 7);
+    const auto* pairs = reinterpret_cast<const long long*>(plane);
+    const __m256 row0 = _mm256_permutevar8x32_ps(
+        _mm256_castsi256_ps(_mm256_i32gather_epi64(pairs, t.i00, 4)), split);
+    const __m256 row1 = _mm256_permutevar8x32_ps(
+        _mm256_castsi256_ps(_mm256_i32gather_epi64(pairs, t.i10, 4)), split);
+    const __m128 p00 = _mm256_castps256_ps128(row0), p01 = _mm256_extractf128_ps(row0, 1);
+    const __m128 p10 = _mm256_castps256_ps128(row1), p11 = _mm256_extractf128_ps(row1, 1);
+    const __m128 top = _mm_add_ps(p00, _mm_mul_ps(_mm_sub_ps(p01, p00), t.tx));
+    const __m128 bottom = _mm_add_ps(p10, _mm_mul_ps(_mm_sub_ps(p11, p10), t.tx));
+    return _mm_add_ps(top, _mm_mul_ps(_mm_sub_ps(bottom, top), t.ty));
+}
+
+// Pixels [n, n + 4) of a run: plane c of the rendered values at planes[c], c < 4 G.
+template <int G>
+TESSWAVE_AVX2 void rendered4(const RenderRun& run, int32_t n, __m128* planes) {
+    for (int g = 0; g < G; ++g) {
+        const float* v = run.values + static_cast<size_t>(n) * run.stride + 4 * g;
+        __m128 p0 = _mm_load_ps(v), p1 = _mm_load_ps(v + run.stride);
+        __m128 p2 = _mm_load_ps(v + 2 * run.stride), p3 = _mm_load_ps(v + 3 * run.stride);
+        _MM_TRANSPOSE4_PS(p0, p1, p2, p3);
+        planes[4 * g] = p0, planes[4 * g + 1] = p1, planes[4 * g + 2] = p2, planes[4 * g + 3] = p3;
+    }
+}
+
+// A run of compose four pixels at a time (the last four may overlap the four before, which then
+// get the same values again). Returns how many pixels it did: all, or none below four.
+template <int Ch, int Weights, bool Both>
+[[gnu::target("avx2")]] int32_t compose_run_avx2(const RenderRun& run, const ResidualWarp& w,
+                                                 float* const* out) {
+    if (run.length < 4) return 0;
+    constexpr int G = (Ch + Weights + 3) / 4;
+    const QuadMap& ma = w.maps_a[run.quad];
+    const QuadMap& mb = w.maps_b[run.quad];
+    for (int32_t next = 0; next < run.length; next += 4) {
+        const int32_t n = std::min(next, run.length - 4);
+        const __m128 u = _mm_loadu_ps(run.u + n), v = _mm_loadu_ps(run.v + n);
+        __m128 rendered[4 * G];
+        rendered4<G>(run, n, rendered);
+        const Taps4 ta = taps4(ma, u, v, w.ra.width, w.ra.height);
+        if constexpr (!Both) {
+            const __m128 ka = _mm_set1_ps(w.ka);
+            for (int c = 0; c < Ch; ++c) {
+                const __m128 a = fetch4(w.ra.planes[c].data(), ta);
+                _mm_storeu_ps(out[c] + run.start + n, _mm_add_ps(rendered[c], _mm_mul_ps(ka, a)));
+            }
+        } else {
+            const Taps4 tb = taps4(mb, u, v, w.rb.width, w.rb.height);
+            const __m128 wa = Weights == 2 ? rendered[Ch] : _mm_set1_ps(w.ka);
+            const __m128 wb = Weights == 2 ? rendered[Ch + 1] : _mm_set1_ps(w.kb);
+            for (int c = 0; c < Ch; ++c) {
+                const __m128 a = fetch4(w.ra.planes[c].data(), ta);
+                const __m128 b = fetch4(w.rb.planes[c].data(), tb);
+                _mm_storeu_ps(
+                    out[c] + run.start + n,
+                    _mm_add_ps(rendered[c], _mm_add_ps(_mm_mul_ps(wa, a), _mm_mul_ps(wb, b))));
+            }
+        }
+    }
+    return run.length;
+}
+
+// warped_through's fetch, four pixels at a time as compose_run_avx2.
+[[gnu::target("avx2")]] int32_t fetch_run_avx2(const RenderRun& run, const QuadMap& m,
+                                               const Image& b, float* const* out) {
+    if (run.length < 4) return 0;
+    for (int32_t next = 0; next < run.length; next += 4) {
+        const int32_t n = std::min(next, run.length - 4);
+        const Taps4 t =
+            taps4(m, _mm_loadu_ps(run.u + n), _mm_loadu_ps(run.v + n), b.width, b.height);
+        for (int c = 0; c < b.channels(); ++c)
+            _mm_storeu_ps(out[c] + run.start + n, fetch4(b.planes[c].data(), t));
+    }
+    return run.length;
+}
+
+#undef TESSWAVE_AVX2
+#endif
+
+// Whether the four-pixel kernels may run on images of this size (see Taps4).
+bool vector_fetch(const Image& image) {
+#if defined(__x86_64__)
+    static const bool avx2 = __builtin_cpu_supports("avx2");
+    return avx2 && image.width >= 2 && image.height >= 2 && image.width < (1 << 22) &&
+           image.height < (1 << 22);
+#else
+    (void)image;
+    return false;
+#endif
+}
+
+std::vector<float*> plane_pointers(Image& image) {
+    std::vector<float*> out(image.planes.size());
+    for (size_t c = 0; c < out.size(); ++c) out[c] = image.planes[c].data();
+    return out;
+}
+
+template <int Ch, int Weights, bool Both>
+void compose_with(const RenderPlan& plan, std::span<const std::span<const float>> planes,
+                  const ResidualWarp& w, Image& out) {
+    const std::vector<float*> to = plane_pointers(out);
+    const bool vector = vector_fetch(w.ra) && vector_fetch(w.rb);
+    render_runs<Ch + Weights, true>(plan, planes, [&](const RenderRun& run) {
+        int32_t n = 0;
+#if defined(__x86_64__)
+        if (vector) n = compose_run_avx2<Ch, Weights, Both>(run, w, to.data());
+#endif
+        for (; n < run.length; ++n) {
+            const float* v = run.values + static_cast<size_t>(n) * run.stride;
+            const int32_t px = run.start + n;
+            const Tap ta = bilinear_tap(w.ra.width, w.ra.height, 1.0,
+                                        w.maps_a[run.quad].at(run.u[n], run.v[n]));
+            if constexpr (!Both) {
+                for (int c = 0; c < Ch; ++c)
+                    to[c][px] = v[c] + w.ka * bilinear_at(ta, w.ra.planes[c].data());
+            } else {
+                const Tap tb = bilinear_tap(w.rb.width, w.rb.height, 1.0,
+                                            w.maps_b[run.quad].at(run.u[n], run.v[n]));
+                const float wa = Weights == 2 ? v[Ch] : w.ka, wb = Weights == 2 ? v[Ch + 1] : w.kb;
+                for (int c = 0; c < Ch; ++c) {
+                    to[c][px] = v[c] + (wa * bilinear_at(ta, w.ra.planes[c].data()) +
+                                        wb * bilinear_at(tb, w.rb.planes[c].data()));
+                }
+            }
+        }
+    });
+}
+
+template <int Ch>
+void compose_channels(const RenderPlan& plan, std::span<const std::span<const float>> planes,
+                      const ResidualWarp& w, Image& out) {
+    if (!w.both) return compose_with<Ch, 0, false>(plan, planes, w, out);
+    if (w.per_sample_weights) return compose_with<Ch, 2, true>(plan, planes, w, out);
+    compose_with<Ch, 0, true>(plan, planes, w, out);
+}
+
+}  // namespace
+
+void compose(const RenderPlan& plan, std::span<const std::span<const float>> planes,
+             const ResidualWarp& w, Image& out) {
+    const int channels = out.channels();
+    const size_t needed = static_cast<size_t>(channels) + (w.per_sample_weights ? 2 : 0);
+    if ((channels != 3 && channels != 4) || planes.size() != needed || w.ra.channels() < channels ||
+        w.rb.channels() < channels || (w.per_sample_weights && !w.both)) {
+        throw Error(
+            str("morph: cannot compose ", planes.size(), " planes into ", channels, " channels"));
+    }
+    if (channels == 4) return compose_channels<4>(plan, planes, w, out);
+    compose_channels<3>(plan, planes, w, out);
+}
+
 Image warped_through(const RenderPlan& plan, std::span<const QuadMap> quads, const Image& b) {
     Image out = make_image(plan.width, plan.height, b.channels(), SampleFormat::f32);
-    render_each<0>(plan, {}, [&](int32_t px, const float*, PlanPlace at) {
-        const Tap tap = bilinear_tap(b.width, b.height, 1.0, quads[at.quad].at(at.u, at.v));
-        for (int c = 0; c < b.channels(); ++c)
-            out.planes[c][px] = bilinear_at(tap, b.planes[c].data());
+    const std::vector<float*> to = plane_pointers(out);
+    const bool vector = vector_fetch(b);
+    render_runs<0, true>(plan, {}, [&](const RenderRun& run) {
+        int32_t n = 0;
+#if defined(__x86_64__)
+        if (vector) n = fetch_run_avx2(run, quads[run.quad], b, to.data());
+#endif
+        for (; n < run.length; ++n) {
+            const Tap tap =
+                bilinear_tap(b.width, b.height, 1.0, quads[run.quad].at(run.u[n], run.v[n]));
+            for (int c = 0; c < b.channels(); ++c)
+                to[c][run.start + n] = bilinear_at(tap, b.planes[c].data());
+        }
     });
     return out;
 }

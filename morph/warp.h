@@ -29,6 +29,23 @@ std::vector<QuadMap> quad_maps(const std::vector<Quad>& quads);
 // pixels): b warped onto the plan's mesh, an image of the plan's size.
 Image warped_through(const RenderPlan& plan, std::span<const QuadMap> quads, const Image& b);
 
+// The residual band warped into a frame: ra read where each pixel lies in A (maps_a) and, when
+// both, rb where it lies in B (maps_b), weighted by ka and kb, or, with per_sample_weights, by the
+// two planes rendered after the colour. The images are at least 2x2 pixels.
+struct ResidualWarp {
+    std::span<const QuadMap> maps_a, maps_b;
+    const Image& ra;
+    const Image& rb;
+    float ka = 1, kb = 0;
+    bool both = false, per_sample_weights = false;
+};
+
+// out = the colour planes (the first out.channels(), 3 or 4, of `planes`) rendered, plus the
+// residual warp: the frame and its residual band in one pass over the plan. Four pixels at a time
+// where the CPU has AVX2, the same bits as a pixel at a time.
+void compose(const RenderPlan& plan, std::span<const std::span<const float>> planes,
+             const ResidualWarp& warp, Image& out);
+
 // Per pixel, how far the detail of a and b (the same size) agrees: detail is each image minus its
 // 5x5 box mean, and c = max(0, <Da, Db> / (|Da| |Db|)) over the colour channels and a 9x9 window
 // (the definition compare-morph measures a middle frame with, core/eval/peer_morph.h). One plane.

@@ -74,13 +74,9 @@ struct PlanPlace {
     float u = 0, v = 0;
 };
 
-// Calls f(pixel, values) for every pixel the plan renders, values[c] being what render() gives
-// planes[c] there, to the bit: render_into itself, and callers that use the rendered values at
-// once (a warp through the mesh map) instead of keeping images of them. C is the plane count (0:
-// planes.size(), any; a fixed count unrolls the channel loop). One quad at a time: its grid values
-// of every plane staged side by side (the next quad's asked for meanwhile), then its pixel runs
-// read their plan entries once. The quads are shared among the cores, so f runs concurrently,
-// once for each pixel. An f that takes a third argument gets the pixel's PlanPlace too.
+// Render_runs hands a row of a quad's pixels over in pieces of at most kRunPixels.
+inline constexpr int32_t kRunPixels = 256;
+
 namespace detail {
 
 // Planes staged side by side in groups of four, one SSE register a grid sample and group, for 2 to
@@ -117,8 +113,26 @@ inline void interpolate_groups(const float* v, int32_t side, float s, float r, f
 
 }  // namespace detail
 
-template <int C, class F>
-void render_each(const RenderPlan& plan, std::span<const std::span<const float>> planes, F&& f) {
+// A piece of a row of output pixels in one quad: pixels [start, start + length); pixel n's
+// rendered value of plane c at values[n * stride + c] (with 2 to 8 planes, the stride is a
+// multiple of 4 and each pixel's values are 16-byte aligned); when render_runs is asked for
+// places, each pixel's (u, v) in the quad's bilinear map (as PlanPlace has them).
+struct RenderRun {
+    int32_t quad = 0, start = 0, length = 0, stride = 0;
+    const float* values = nullptr;
+    const float* u = nullptr;
+    const float* v = nullptr;
+};
+
+// Calls f(run) for every piece of every row run of the plan, the values of each plane being what
+// render() gives, to the bit: render_into itself, and callers that use the rendered values at once
+// (a warp through the mesh map) instead of keeping images of them. C is the plane count (0:
+// planes.size(), any; a fixed count unrolls the channel loop). One quad at a time: its grid values
+// of every plane staged side by side (the next quad's asked for meanwhile), then its pixel runs
+// read their plan entries once. The quads are shared among the cores, so f runs concurrently, on
+// disjoint pixels.
+template <int C, bool Places, class F>
+void render_runs(const RenderPlan& plan, std::span<const std::span<const float>> planes, F&& f) {
     check_render_planes(plan, planes, C);
     const std::vector<size_t> starts = plan_entry_starts(plan);
     const int32_t side = plan.cells + 1, grid_size = side * side;
@@ -131,9 +145,10 @@ void render_each(const RenderPlan& plan, std::span<const std::span<const float>>
             constexpr int G = detail::kStagedGroups<C>;
             constexpr size_t L = 4 * G;  // a staged grid sample's floats, when grouped
             std::vector<float> local(static_cast<size_t>(grid_size) * (G > 0 ? L : channels));
-            std::vector<float> dynamic(C > 0 ? 0 : channels);
-            alignas(16) float fixed[G > 0 ? L : (C > 0 ? C : 1)];  // may stay in registers
-            float* values = C > 0 ? fixed : dynamic.data();
+            // Pixel n's values at n * stride: groups of 4, 16-byte aligned as operator new aligns.
+            const size_t stride = G > 0 ? L : channels;
+            std::vector<float> values(kRunPixels * stride);
+            std::vector<float> us(Places ? kRunPixels : 0), vs(us.size());
             for (int64_t q = begin; q < end; ++q) {
                 const int32_t* ids = plan.grid.data() + q * grid_size;
                 for (size_t c = 0; c < channels; ++c) {
@@ -158,33 +173,60 @@ void render_each(const RenderPlan& plan, std::span<const std::span<const float>>
                 size_t i = starts[static_cast<size_t>(q)];
                 for (int32_t run = plan.quad_runs[q]; run < plan.quad_runs[q + 1]; ++run) {
                     const int32_t start = plan.run_start[run], length = plan.run_length[run];
-                    for (int32_t n = 0; n < length; ++n, ++i) {
-                        const float s = plan.st[i][0] * kUnit, r = plan.st[i][1] * kUnit;
-                        if constexpr (G > 0) {
-                            detail::interpolate_groups<G>(local.data() + plan.cell[i] * L, side, s,
-                                                          r, values);
-                        } else {
-                            for (size_t c = 0; c < channels; ++c) {
-                                const float* v = local.data() + c * grid_size + plan.cell[i];
-                                const float top = v[0] + (v[1] - v[0]) * s;
-                                const float bottom = v[side] + (v[side + 1] - v[side]) * s;
-                                values[c] = top + (bottom - top) * r;
+                    for (int32_t from = 0; from < length; from += kRunPixels) {
+                        const int32_t count = std::min(kRunPixels, length - from);
+                        float* __restrict to = values.data();
+                        for (int32_t n = 0; n < count; ++n, ++i) {
+                            const float s = plan.st[i][0] * kUnit, r = plan.st[i][1] * kUnit;
+                            if constexpr (G > 0) {
+                                detail::interpolate_groups<G>(local.data() + plan.cell[i] * L, side,
+                                                              s, r, to + n * stride);
+                            } else {
+                                for (size_t c = 0; c < channels; ++c) {
+                                    const float* v = local.data() + c * grid_size + plan.cell[i];
+                                    const float top = v[0] + (v[1] - v[0]) * s;
+                                    const float bottom = v[side] + (v[side + 1] - v[side]) * s;
+                                    to[n * stride + c] = top + (bottom - top) * r;
+                                }
                             }
                         }
-                        if constexpr (std::is_invocable_v<F, int32_t, const float*, PlanPlace>) {
-                            const int32_t cell = plan.cell[i], row = cell / side;
-                            f(start + n, static_cast<const float*>(values),
-                              PlanPlace{static_cast<int32_t>(q),
-                                        (static_cast<float>(cell - row * side) + s) * inverse_m,
-                                        (static_cast<float>(row) + r) * inverse_m});
-                        } else {
-                            f(start + n, static_cast<const float*>(values));
+                        if constexpr (Places) {
+                            for (int32_t n2 = 0; n2 < count; ++n2) {
+                                const size_t e = i - count + n2;
+                                const int32_t cell = plan.cell[e], row = cell / side;
+                                us[n2] = (static_cast<float>(cell - row * side) +
+                                          plan.st[e][0] * kUnit) *
+                                         inverse_m;
+                                vs[n2] =
+                                    (static_cast<float>(row) + plan.st[e][1] * kUnit) * inverse_m;
+                            }
                         }
+                        f(RenderRun{static_cast<int32_t>(q), start + from, count,
+                                    static_cast<int32_t>(stride), values.data(), us.data(),
+                                    vs.data()});
                     }
                 }
             }
         },
         16);
+}
+
+// Calls f(pixel, values) for every pixel the plan renders, values[c] being what render() gives
+// planes[c] there, to the bit (render_runs, a pixel at a time). An f that takes a third argument
+// gets the pixel's PlanPlace too.
+template <int C, class F>
+void render_each(const RenderPlan& plan, std::span<const std::span<const float>> planes, F&& f) {
+    constexpr bool places = std::is_invocable_v<F, int32_t, const float*, PlanPlace>;
+    render_runs<C, places>(plan, planes, [&](const RenderRun& run) {
+        for (int32_t n = 0; n < run.length; ++n) {
+            const float* values = run.values + static_cast<size_t>(n) * run.stride;
+            if constexpr (places) {
+                f(run.start + n, values, PlanPlace{run.quad, run.u[n], run.v[n]});
+            } else {
+                f(run.start + n, values);
+            }
+        }
+    });
 }
 
 }  // namespace tesswave
