@@ -45,7 +45,8 @@ std::vector<std::vector<float>> sample_planes(const Hierarchy& h, int count) {
 TEST(MorphWarp, compose_gives_the_per_pixel_formula_to_the_bit) {
     const Scene s;
     for (int channels : {3, 4}) {
-        for (auto [both, weighted] : {std::pair{false, false}, {true, false}, {true, true}}) {
+        for (const auto& mode : {std::pair{false, false}, {true, false}, {true, true}}) {
+            const bool both = mode.first, weighted = mode.second;  // lambdas capture these
             SCOPED_TRACE(::testing::Message()
                          << channels << " channels, both " << both << ", weighted " << weighted);
             const auto x = sample_planes(s.h, channels + (weighted ? 2 : 0));

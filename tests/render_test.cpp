@@ -40,8 +40,13 @@ TEST(Render, every_pixel_is_written_exactly_once) {
         const Hierarchy h = build_hierarchy(mesh, {.levels = 3});
         for (auto [w, hgt] : {std::pair{97, 61}, {203, 117}, {31, 50}}) {
             const RenderPlan plan = plan_render(h, mesh.vertices, 97, 61, w, hgt);
-            for (size_t px = 0; px < plan.writes.size(); ++px) {
-                ASSERT_EQ(plan.writes[px], 1) << w << "x" << hgt << " pixel " << px;
+            std::vector<int> writes(static_cast<size_t>(w) * hgt, 0);
+            for (size_t run = 0; run < plan.run_start.size(); ++run) {
+                for (int32_t n = 0; n < plan.run_length[run]; ++n)
+                    ++writes[plan.run_start[run] + n];
+            }
+            for (size_t px = 0; px < writes.size(); ++px) {
+                ASSERT_EQ(writes[px], 1) << w << "x" << hgt << " pixel " << px;
             }
         }
     }

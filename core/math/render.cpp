@@ -92,8 +92,6 @@ RenderPlan plan_render(const Hierarchy& h, std::span<const Vec2> mesh_vertices, 
     plan.samples = t.n_vertices;
     plan.cells = m;
     plan.grid.assign(t.patch_grid.begin(), t.patch_grid.end());
-    const size_t pixels = static_cast<size_t>(width) * height;
-    plan.writes.assign(pixels, 0);
     // First the runs of every quad (cheap, in order), then each quad's pixels at their known
     // place in the plan (the inverse bilinear maps: the cost), quads shared among the cores.
     plan.quad_runs.push_back(0);
@@ -113,7 +111,6 @@ RenderPlan plan_render(const Hierarchy& h, std::span<const Vec2> mesh_vertices, 
             if (last <= first) continue;
             plan.run_start.push_back(k * width + first);
             plan.run_length.push_back(last - first);
-            for (int i = first; i < last; ++i) ++plan.writes[k * width + i];
             entries += last - first;
         }
         plan.quad_runs.push_back(static_cast<int32_t>(plan.run_start.size()));

@@ -37,7 +37,6 @@ struct RenderPlan {
     // and r in 16-bit fixed point (units of 2^-16; error below 2^-17 of a cell).
     std::vector<int32_t> cell;
     std::vector<std::array<uint16_t, 2>> st;
-    std::vector<uint8_t> writes;  // per output pixel: how many quads claimed it (always 1)
 };
 
 struct RenderOptions {
