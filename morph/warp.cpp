@@ -4,7 +4,7 @@
 #include <cmath>
 #include <opencv2/imgproc.hpp>
 #if defined(__x86_64__)
-#include <immintrin.h>
+#include "core/math/bilinear4.h"
 #endif
 
 #include "core/math/error.h"
@@ -80,17 +80,13 @@ namespace {
 // the tap's clamps and fractions as bilinear_tap computes them in doubles. Those are exact in
 // floats for the positions of images below 2^22 pixels a side (p - 1/2 is exact from p = 1/4 on,
 // and below 1/4 it is negative either way, hence 0; f - x0 is exact as f < 2 x0 or x0 = 0), so
-// the same bits. x1 = x0 + 1 and y1 = y0 + 1 (the image is at least 2x2): i00 and tx, ty suffice.
-struct Taps4 {
-    __m128i i00, i10;
-    __m128 tx, ty;
-};
+// the same bits. The image is at least 2x2 pixels (detail::Taps4).
 TESSWAVE_AVX2 __m128 axis4(float o, float a, float b, float c, __m128 u, __m128 v) {
     return _mm_add_ps(_mm_add_ps(_mm_add_ps(_mm_set1_ps(o), _mm_mul_ps(u, _mm_set1_ps(a))),
                                  _mm_mul_ps(v, _mm_set1_ps(b))),
                       _mm_mul_ps(_mm_mul_ps(u, v), _mm_set1_ps(c)));
 }
-TESSWAVE_AVX2 Taps4 taps4(const QuadMap& m, __m128 u, __m128 v, int w, int h) {
+TESSWAVE_AVX2 detail::Taps4 taps4(const QuadMap& m, __m128 u, __m128 v, int w, int h) {
     const __m128 half = _mm_set1_ps(0.5f), zero = _mm_setzero_ps();
     const __m128 fx =
         _mm_min_ps(_mm_set1_ps(w - 1.0f),
@@ -100,24 +96,8 @@ TESSWAVE_AVX2 Taps4 taps4(const QuadMap& m, __m128 u, __m128 v, int w, int h) {
                    _mm_max_ps(zero, _mm_sub_ps(axis4(m.y, m.ay, m.by, m.cy, u, v), half)));
     const __m128i x0 = _mm_min_epi32(_mm_cvttps_epi32(fx), _mm_set1_epi32(w - 2));
     const __m128i y0 = _mm_min_epi32(_mm_cvttps_epi32(fy), _mm_set1_epi32(h - 2));
-    const __m128i i00 = _mm_add_epi32(_mm_mullo_epi32(y0, _mm_set1_epi32(w)), x0);
-    return {i00, _mm_add_epi32(i00, _mm_set1_epi32(w)), _mm_sub_ps(fx, _mm_cvtepi32_ps(x0)),
-            _mm_sub_ps(fy, _mm_cvtepi32_ps(y0))};
-}
-// bilinear_at(tap, plane) for the four taps: each 64-bit gather reads a pixel and its right
-// neighbour, split into the left and the right pixels.
-TESSWAVE_AVX2 __m128 fetch4(const float* plane, const Taps4& t) {
-    const __m256i split = _mm256_setr_epi32(0, 2, 4, 6, 1, 3, 5, 7);
-    const auto* pairs = reinterpret_cast<const long long*>(plane);
-    const __m256 row0 = _mm256_permutevar8x32_ps(
-        _mm256_castsi256_ps(_mm256_i32gather_epi64(pairs, t.i00, 4)), split);
-    const __m256 row1 = _mm256_permutevar8x32_ps(
-        _mm256_castsi256_ps(_mm256_i32gather_epi64(pairs, t.i10, 4)), split);
-    const __m128 p00 = _mm256_castps256_ps128(row0), p01 = _mm256_extractf128_ps(row0, 1);
-    const __m128 p10 = _mm256_castps256_ps128(row1), p11 = _mm256_extractf128_ps(row1, 1);
-    const __m128 top = _mm_add_ps(p00, _mm_mul_ps(_mm_sub_ps(p01, p00), t.tx));
-    const __m128 bottom = _mm_add_ps(p10, _mm_mul_ps(_mm_sub_ps(p11, p10), t.tx));
-    return _mm_add_ps(top, _mm_mul_ps(_mm_sub_ps(bottom, top), t.ty));
+    return detail::taps4(x0, y0, w, _mm_sub_ps(fx, _mm_cvtepi32_ps(x0)),
+                         _mm_sub_ps(fy, _mm_cvtepi32_ps(y0)));
 }
 
 // Pixels [n, n + 4) of a run: plane c of the rendered values at planes[c], c < 4 G.
@@ -146,20 +126,20 @@ template <int Ch, int Weights, bool Both>
         const __m128 u = _mm_loadu_ps(run.u + n), v = _mm_loadu_ps(run.v + n);
         __m128 rendered[4 * G];
         rendered4<G>(run, n, rendered);
-        const Taps4 ta = taps4(ma, u, v, w.ra.width, w.ra.height);
+        const detail::Taps4 ta = taps4(ma, u, v, w.ra.width, w.ra.height);
         if constexpr (!Both) {
             const __m128 ka = _mm_set1_ps(w.ka);
             for (int c = 0; c < Ch; ++c) {
-                const __m128 a = fetch4(w.ra.planes[c].data(), ta);
+                const __m128 a = detail::bilinear4(w.ra.planes[c].data(), ta);
                 _mm_storeu_ps(out[c] + run.start + n, _mm_add_ps(rendered[c], _mm_mul_ps(ka, a)));
             }
         } else {
-            const Taps4 tb = taps4(mb, u, v, w.rb.width, w.rb.height);
+            const detail::Taps4 tb = taps4(mb, u, v, w.rb.width, w.rb.height);
             const __m128 wa = Weights == 2 ? rendered[Ch] : _mm_set1_ps(w.ka);
             const __m128 wb = Weights == 2 ? rendered[Ch + 1] : _mm_set1_ps(w.kb);
             for (int c = 0; c < Ch; ++c) {
-                const __m128 a = fetch4(w.ra.planes[c].data(), ta);
-                const __m128 b = fetch4(w.rb.planes[c].data(), tb);
+                const __m128 a = detail::bilinear4(w.ra.planes[c].data(), ta);
+                const __m128 b = detail::bilinear4(w.rb.planes[c].data(), tb);
                 _mm_storeu_ps(
                     out[c] + run.start + n,
                     _mm_add_ps(rendered[c], _mm_add_ps(_mm_mul_ps(wa, a), _mm_mul_ps(wb, b))));
@@ -175,10 +155,10 @@ template <int Ch, int Weights, bool Both>
     if (run.length < 4) return 0;
     for (int32_t next = 0; next < run.length; next += 4) {
         const int32_t n = std::min(next, run.length - 4);
-        const Taps4 t =
+        const detail::Taps4 t =
             taps4(m, _mm_loadu_ps(run.u + n), _mm_loadu_ps(run.v + n), b.width, b.height);
         for (int c = 0; c < b.channels(); ++c)
-            _mm_storeu_ps(out[c] + run.start + n, fetch4(b.planes[c].data(), t));
+            _mm_storeu_ps(out[c] + run.start + n, detail::bilinear4(b.planes[c].data(), t));
     }
     return run.length;
 }
@@ -186,7 +166,7 @@ template <int Ch, int Weights, bool Both>
 #undef TESSWAVE_AVX2
 #endif
 
-// Whether the four-pixel kernels may run on images of this size (see Taps4).
+// Whether the four-pixel kernels may run on images of this size (see taps4).
 bool vector_fetch(const Image& image) {
 #if defined(__x86_64__)
     static const bool avx2 = __builtin_cpu_supports("avx2");

@@ -73,7 +73,7 @@ struct PlanPlace {
     float u = 0, v = 0;
 };
 
-// Render_runs hands a row of a quad's pixels over in pieces of at most kRunPixels.
+// render_runs hands a row of a quad's pixels over in pieces of at most kRunPixels.
 inline constexpr int32_t kRunPixels = 256;
 
 namespace detail {
@@ -188,16 +188,10 @@ void render_runs(const RenderPlan& plan, std::span<const std::span<const float>>
                                     to[n * stride + c] = top + (bottom - top) * r;
                                 }
                             }
-                        }
-                        if constexpr (Places) {
-                            for (int32_t n2 = 0; n2 < count; ++n2) {
-                                const size_t e = i - count + n2;
-                                const int32_t cell = plan.cell[e], row = cell / side;
-                                us[n2] = (static_cast<float>(cell - row * side) +
-                                          plan.st[e][0] * kUnit) *
-                                         inverse_m;
-                                vs[n2] =
-                                    (static_cast<float>(row) + plan.st[e][1] * kUnit) * inverse_m;
+                            if constexpr (Places) {
+                                const int32_t cell = plan.cell[i], row = cell / side;
+                                us[n] = (static_cast<float>(cell - row * side) + s) * inverse_m;
+                                vs[n] = (static_cast<float>(row) + r) * inverse_m;
                             }
                         }
                         f(RenderRun{static_cast<int32_t>(q), start + from, count,

@@ -11,7 +11,7 @@
 #include "core/math/strings.h"
 
 #if defined(__x86_64__)
-#include <immintrin.h>
+#include "core/math/bilinear4.h"
 #endif
 
 namespace tesswave {
@@ -66,8 +66,6 @@ double pyramid_level(double size, int top) {
     const __m256d x_hi = _mm256_set1_pd(w - 1.0), y_hi = _mm256_set1_pd(h - 1.0);
     const __m128i x0_hi = _mm_set1_epi32(std::max(w - 2, 0)),
                   y0_hi = _mm_set1_epi32(std::max(h - 2, 0));
-    const __m128i width = _mm_set1_epi32(w);
-    const __m256i split = _mm256_setr_epi32(0, 2, 4, 6, 1, 3, 5, 7);
     const int channels = image.channels();
     if (to - from < 4) return 0;
     for (int32_t next = from; next < to; next += 4) {
@@ -84,26 +82,10 @@ double pyramid_level(double size, int top) {
         const __m128i y0 = _mm_min_epi32(_mm256_cvttpd_epi32(fy), y0_hi);
         const __m128 tx = _mm256_cvtpd_ps(_mm256_sub_pd(fx, _mm256_cvtepi32_pd(x0)));
         const __m128 ty = _mm256_cvtpd_ps(_mm256_sub_pd(fy, _mm256_cvtepi32_pd(y0)));
-        const __m128i i00 = _mm_add_epi32(_mm_mullo_epi32(y0, width), x0);
-        const __m128i i10 = _mm_add_epi32(i00, width);
+        const detail::Taps4 taps = detail::taps4(x0, y0, w, tx, ty);
         for (int ch = 0; ch < channels; ++ch) {
-            // Each gather reads a pixel and its right neighbour as one 64-bit pair; the pairs
-            // are then split into the left and the right pixels.
-            const float* plane = image.planes[ch].data();
-            const __m256 row0 =
-                _mm256_permutevar8x32_ps(_mm256_castsi256_ps(_mm256_i32gather_epi64(
-                                             reinterpret_cast<const long long*>(plane), i00, 4)),
-                                         split);
-            const __m256 row1 =
-                _mm256_permutevar8x32_ps(_mm256_castsi256_ps(_mm256_i32gather_epi64(
-                                             reinterpret_cast<const long long*>(plane), i10, 4)),
-                                         split);
-            const __m128 p00 = _mm256_castps256_ps128(row0), p01 = _mm256_extractf128_ps(row0, 1);
-            const __m128 p10 = _mm256_castps256_ps128(row1), p11 = _mm256_extractf128_ps(row1, 1);
-            const __m128 top = _mm_add_ps(p00, _mm_mul_ps(_mm_sub_ps(p01, p00), tx));
-            const __m128 bottom = _mm_add_ps(p10, _mm_mul_ps(_mm_sub_ps(p11, p10), tx));
             alignas(16) float v[4];
-            _mm_store_ps(v, _mm_add_ps(top, _mm_mul_ps(_mm_sub_ps(bottom, top), ty)));
+            _mm_store_ps(v, detail::bilinear4(image.planes[ch].data(), taps));
             float* to_plane = out[ch];
             for (int k = 0; k < 4; ++k) to_plane[ids[c + k]] = v[k];
         }
