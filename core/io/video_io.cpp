@@ -327,6 +327,14 @@ VideoWriter::VideoWriter(const std::string& path, int width, int height,
         enc->colorspace = AVCOL_SPC_SMPTE170M;
         if (options.codec == VideoCodec::h264) {
             encoder_options = {{"preset", options.preset}, {"crf", str(options.crf)}};
+#if defined(__x86_64__)
+            // x264's AVX-512 kernels make the stream depend on what its buffers held before (the
+            // same frames coded twice in one process gave streams 65-92 dB apart in some frames;
+            // with AVX2 or no assembly the same bytes, as without AVX-512): the same command
+            // must give the same file, so they are left out.
+            if (__builtin_cpu_supports("avx512f"))
+                encoder_options.push_back({"x264-params", "asm=AVX2"});
+#endif
         }
     }
     if (std::string_view(container.muxer) == "mp4" || std::string_view(container.muxer) == "mov") {
