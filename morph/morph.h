@@ -112,9 +112,9 @@ class Morph {
     std::vector<float> corresponding_;  // how far each counts as corresponding, 0..1
     // aware, per T_J sample: plane 0, how far its detail counts as corresponding by the pixels
     // (corresponding() of the mean of detail_agreement in A's pixels, B warped to A, and in B's,
-    // A warped to B, at its places); with the
-    // residual warp, planes 1 to 3 the residuals' local energies and inner product at its place
-    // in A (B's residual warped to A, 7x7 windows), which the residual band's weights need.
+    // A warped to B, at its places); with the residual warp, planes 1 to 3 the residuals' local
+    // energies and inner product at its place in A (B's residual warped to A, 7x7 windows),
+    // which the residual band's weights need.
     std::vector<std::vector<float>> placed_;
 };
 
