@@ -118,6 +118,31 @@ TEST(MeshFit, recovers_a_smooth_warp) {
     }
 }
 
+// A step tolerance stops the solver early, with the vertices within a few times that tolerance
+// of the full fit's (the steps shrink geometrically); no tolerance leaves the fit as it was.
+TEST(MeshFit, a_step_tolerance_stops_early_close_to_the_full_fit) {
+    // Every third match 15 px off at most: the Cauchy loss makes the full fit creep.
+    WarpCase c = warp_case(320, 240, 16, 12, 600, 14);
+    std::mt19937_64 rng(15);
+    for (size_t k = 0; k < c.b.size(); k += 3)
+        c.b[k] = c.b[k] + Vec2{30 * (uniform(rng) - 0.5), 30 * (uniform(rng) - 0.5)};
+    const MeshFitResult full = fit_mesh(c.mesh, c.a, c.b, 320, 240);
+    const MeshFitResult same = fit_mesh(c.mesh, c.a, c.b, 320, 240, {.step_tolerance = 0});
+    EXPECT_EQ(same.vertices, full.vertices);
+    const MeshFitResult early = fit_mesh(c.mesh, c.a, c.b, 320, 240, {.step_tolerance = 0.05});
+    ASSERT_TRUE(early.ok()) << early.failure;
+    expect_valid(with_vertices(c.mesh, early.vertices, 320, 240));
+    EXPECT_LT(early.iterations, full.iterations);
+    double largest = 0;
+    for (size_t v = 0; v < full.vertices.size(); ++v)
+        largest = std::max(largest, norm(early.vertices[v] - full.vertices[v]));
+    EXPECT_LT(largest, 0.1);
+    EXPECT_NE(error_of([&] {
+                  fit_mesh(c.mesh, c.a, c.b, 320, 240, {.step_tolerance = -1});
+              }).find("step_tolerance"),
+              std::string::npos);
+}
+
 TEST(MeshFit, scales_to_another_image_size) {
     const Mesh mesh = voronoi_mesh(320, 240, {.sites = 40, .seed = 3});
     expect_valid(mesh);

@@ -101,6 +101,7 @@ MotionStep MeshPins::fit(std::span<const Track> tracks, std::span<const Vec2> pr
     o.smoothness_weight = options_.smoothness_weight;
     o.previous = previous;
     o.temporal_weight = options_.temporal_weight;
+    o.step_tolerance = options_.fit_step_tolerance;
     const MeshFitResult r = fit_mesh(rest_, a, b, rest_.width, rest_.height, o);
     if (!r.ok()) {
         step.failure = r.failure;

@@ -101,19 +101,22 @@ struct VideoEncodeOptions {
     // projection starts from its point samples: starting from the previous frame's projection on
     // the moving mesh took more iterations (carphone, 32 frames: 13 to 21 a frame, against 10 to
     // 16), and from the point samples plus the previous frame's correction about as many (mean
-    // 12.0 against 12.6), at equal time and PSNR; neither was kept. At most 8 steps a frame (the
-    // tolerance stops most frames at 10 to 16). PSNR with 30 / 8 / 4 / 2 steps: carphone, 32
+    // 12.0 against 12.6), at equal time and PSNR; neither was kept. At most 4 steps a frame (the
+    // tolerance would stop most frames at 10 to 16). PSNR with 30 / 8 / 4 / 2 steps: carphone, 32
     // frames, at 50 / 200 / 600 kbit/s: 28.83 / 28.84 / 28.82 / 28.83, 35.65 / 35.69 / 35.66 /
     // 35.58, 39.75 / 39.78 / 39.75 / 39.53; aerial, 16 frames, at 300 / 1500 / 4000: 29.34 /
     // 29.33 / 29.30 / 29.31, 34.45 / 34.46 / 34.47 / 34.41, 40.49 / 40.52 / 40.51 / 40.15; chaplin,
     // 16 frames, at 150 / 1500 (30 / 8 / 4): 28.39 / 28.39 / 28.39, 39.67 / 39.67 / 39.64. Point
-    // sampling: carphone 28.48 / 33.13 / 34.89, aerial 28.89 / 32.52 / 34.57.
+    // sampling: carphone 28.48 / 33.13 / 34.89, aerial 28.89 / 32.52 / 34.57. From 8 steps to 4
+    // (with the mesh fit's step tolerance, enc_motion.h), compare-video on 33 frames of each
+    // shared clip at 0.02 to 0.8 bpp: the moving mesh's PSNR-Y moved by -0.020 to +0.018 dB
+    // (static mesh: -0.041 to +0.042), its encoding 28 to 33 % faster.
     // Jacobi: the line preconditioner (project.h) gave the same quality in its 8 steps at 1.5
     // samples a pixel with this smoothness, and lost 0.01 to 0.04 dB and a fifth of the encoding
     // time (carphone, 64 frames, at 50 / 200 / 600 kbit/s).
     Sampling sampling = Sampling::fit;
     ProjectOptions projection = {
-        .smoothness = 0.003, .max_iterations = 8, .preconditioner = Preconditioner::jacobi};
+        .smoothness = 0.003, .max_iterations = 4, .preconditioner = Preconditioner::jacobi};
     // Within each encode() call: the fraction of that frame done and its stage (tracking, fitting
     // the mesh, calibrating, coding). The caller maps frames into its bar with progress_range.
     Progress progress = {};

@@ -65,13 +65,20 @@ void pin_weights(const Mesh& mesh, const PinnedPoint& pin, std::vector<double>& 
     w[(s + n - 1) % n] += 0.5 * (1 - u) * v;
 }
 
-class ProgressCallback : public ceres::IterationCallback {
+// Reports progress, and stops the solver once a successful step is below the step tolerance.
+class IterationWatch : public ceres::IterationCallback {
   public:
-    explicit ProgressCallback(const MeshFitOptions& options) : options_(options) {}
+    explicit IterationWatch(const MeshFitOptions& options) : options_(options) {}
     ceres::CallbackReturnType operator()(const ceres::IterationSummary& summary) override {
-        options_.progress(
-            std::min(1.0, static_cast<double>(summary.iteration) / options_.max_iterations),
-            "fitting");
+        if (options_.progress) {
+            options_.progress(
+                std::min(1.0, static_cast<double>(summary.iteration) / options_.max_iterations),
+                "fitting");
+        }
+        if (summary.iteration > 0 && summary.step_is_successful &&
+            summary.step_norm < options_.step_tolerance) {
+            return ceres::SOLVER_TERMINATE_SUCCESSFULLY;
+        }
         return ceres::SOLVER_CONTINUE;
     }
 
@@ -115,6 +122,9 @@ void check_inputs(const Mesh& mesh_a, std::span<const Vec2> points_a,
     }
     if (o.max_iterations < 1 || o.max_iterations > kMaxIterations) {
         throw Error(str("mesh fit: max_iterations must be in 1..", kMaxIterations));
+    }
+    if (!(o.step_tolerance >= 0 && o.step_tolerance <= 1e3)) {
+        throw Error(str("mesh fit: step_tolerance ", o.step_tolerance, " is not in [0, 1000] px"));
     }
     if (o.temporal_weight > 0 && o.previous.empty()) {
         throw Error("mesh fit: temporal_weight needs the previous frame's vertices");
@@ -293,8 +303,8 @@ void solve(FitProblem& fit) {
     solver.parameter_tolerance = 1e-10;
     solver.logging_type = ceres::SILENT;
     solver.minimizer_progress_to_stdout = false;
-    ProgressCallback callback(fit.options);
-    if (fit.options.progress) solver.callbacks.push_back(&callback);
+    IterationWatch watch(fit.options);
+    if (fit.options.progress || fit.options.step_tolerance > 0) solver.callbacks.push_back(&watch);
     ceres::Solve(solver, &fit.problem, &fit.summary);
     if (fit.summary.termination_type == ceres::FAILURE ||
         fit.summary.termination_type == ceres::USER_FAILURE) {

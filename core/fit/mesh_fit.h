@@ -75,6 +75,11 @@ struct MeshFitOptions {
     double min_corner_sine = 0.05;   // convexity margin m (about 3 degrees from straight)
     double min_edge_ratio = 0.05;    // collapse margin: an edge keeps 1/20 of its length in r
     int max_iterations = 100;
+    // Stop once a successful step moves the vertices by less than this, px (the norm over all of
+    // them); 0: run to the solver's own tolerances. The fit creeps for tens of steps of a few
+    // hundredths of a pixel where the Cauchy loss and the barriers meet; a caller that rounds the
+    // result (video motion is coded in quarter pixels) need not wait for them.
+    double step_tolerance = 0.0;
     // Optional (video): the previous frame's vertices on B, the start of the fit when they form a
     // valid mesh there, and the target of the temporal term.
     std::span<const Vec2> previous = {};
