@@ -4,8 +4,12 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
+#include <chrono>
+#include <condition_variable>
 #include <cstdlib>
+#include <mutex>
 #include <stdexcept>
 #include <string>
 #include <thread>
@@ -73,6 +77,52 @@ TEST(Parallel, concurrent_callers_each_cover_their_range) {
     }
     for (std::thread& c : callers) c.join();
     EXPECT_EQ(wrong.load(), 0);
+    set_thread_count(0);
+}
+
+// parallel_tasks runs every task once, on no more threads than allowed even when the pool has
+// more workers, and hands tasks out as threads come free: the first task waits until every other
+// one has run, which an even split of the tasks over two threads would never let happen.
+TEST(Parallel, tasks_go_to_whichever_thread_is_free) {
+    set_thread_count(5);
+    parallel_for(5, [](int64_t, int64_t) {});  // five threads in the pool
+    for (int threads : {1, 2, 3}) {
+        set_thread_count(threads);
+        std::vector<std::atomic<int>> seen(40);
+        std::atomic<int> running{0}, peak{0};
+        parallel_tasks(40, [&](int64_t k) {
+            const int now = ++running;
+            int seen_peak = peak.load();
+            while (now > seen_peak && !peak.compare_exchange_weak(seen_peak, now)) {
+            }
+            std::this_thread::sleep_for(std::chrono::microseconds(200));
+            ++seen[static_cast<size_t>(k)];
+            --running;
+        });
+        for (size_t k = 0; k < seen.size(); ++k)
+            ASSERT_EQ(seen[k].load(), 1) << threads << " " << k;
+        EXPECT_LE(peak.load(), threads);
+    }
+    set_thread_count(2);
+    std::mutex mutex;
+    std::condition_variable all_others;
+    int others = 0;
+    bool waited = false;
+    parallel_tasks(8, [&](int64_t k) {
+        std::unique_lock lock(mutex);
+        if (k == 0) {
+            waited =
+                all_others.wait_for(lock, std::chrono::seconds(20), [&] { return others == 7; });
+        } else if (++others == 7) {
+            all_others.notify_all();
+        }
+    });
+    EXPECT_TRUE(waited);
+    EXPECT_THROW(parallel_tasks(6,
+                                [](int64_t k) {
+                                    if (k == 4) throw std::runtime_error("task failed");
+                                }),
+                 std::runtime_error);
     set_thread_count(0);
 }
 

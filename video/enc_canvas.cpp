@@ -226,10 +226,16 @@ void VideoEncoder::analyze_group(GroupFrames& m) const {
     const size_t n = m.vertices.size();
     m.coefficients.assign(n, {});
     // A frame per core (a frame's own kernels split badly on small frames).
+    const std::vector<Vec2>& rest = domain_->shape().mesh.vertices;
     parallel_for(static_cast<int64_t>(n), [&](int64_t begin, int64_t end) {
         for (auto t = static_cast<size_t>(begin); t < static_cast<size_t>(end); ++t) {
-            domain.sample(pending_[t].frame, m.vertices[t], m.coefficients[t], options_.sampling,
-                          options_.projection);
+            const Pending& p = pending_[t];
+            if (m.canvas.domain == domain_ && !p.still.empty() && m.vertices[t] == rest) {
+                m.coefficients[t] = p.still;  // the mesh at rest: the static mesh's samples
+            } else {
+                domain.sample(p.frame, m.vertices[t], m.coefficients[t], options_.sampling,
+                              options_.projection);
+            }
         }
     });
     if (m.canvas.group.has_canvas()) {
@@ -253,15 +259,29 @@ std::vector<EncodedFrame> VideoEncoder::code_pending(bool keep_rest) {
             std::vector<Canvas> canvases = {place_canvas()};
             if (canvases[0].group.has_canvas()) canvases.push_back({group_, domain_});
             meshes.resize(canvases.size());
-            parallel_for(
-                static_cast<int64_t>(canvases.size()),
-                [&](int64_t begin, int64_t end) {
-                    for (int64_t k = begin; k < end; ++k) {
-                        const size_t i = static_cast<size_t>(k);
-                        meshes[i] = fit_group(std::move(canvases[i]));
-                    }
-                },
-                1);
+            // Beside the fits, which go frame after frame, the frames' samples on the static mesh
+            // (the group's coding there, code_lifted_group), a few frames a task, so that no core
+            // waits for the fits. A frame left for the next group keeps them.
+            constexpr size_t kStillFrames = 4;
+            std::vector<size_t> still;
+            for (size_t t = 0; t < pending_.size(); ++t) {
+                if (pending_[t].still.empty()) still.push_back(t);
+            }
+            const size_t fits = canvases.size();
+            const size_t still_tasks = (still.size() + kStillFrames - 1) / kStillFrames;
+            parallel_tasks(static_cast<int64_t>(fits + still_tasks), [&](int64_t k) {
+                const auto i = static_cast<size_t>(k);
+                if (i < fits) {
+                    meshes[i] = fit_group(std::move(canvases[i]));
+                    return;
+                }
+                const size_t first = (i - fits) * kStillFrames;
+                for (size_t j = first; j < std::min(still.size(), first + kStillFrames); ++j) {
+                    Pending& p = pending_[still[j]];
+                    domain_->sample(p.frame, domain_->shape().mesh.vertices, p.still,
+                                    options_.sampling, options_.projection);
+                }
+            });
             // The group runs as far as a fit holds; a mesh whose fit failed sooner is left out.
             n = 0;
             for (const GroupFrames& m : meshes) n = std::max(n, m.vertices.size());

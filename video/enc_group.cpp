@@ -214,8 +214,8 @@ std::vector<EncodedFrame> VideoEncoder::code_lifted_group(std::vector<GroupFrame
     };
     // The codings: on each of the meshes (tracked: on a canvas and on the frame); on the static
     // mesh, whose frames carry no motion (motion never hurts); on the fixed grid (nor does the
-    // mesh). They are independent, so each runs on a core of its own (its kernels serial there);
-    // the choice below is made in this order.
+    // mesh). They are independent tasks, each taken by the next free core (its kernels serial
+    // there), the cheapest (the grid's) last; the choice below is made in this order.
     std::vector<std::optional<GroupCoding>> on_mesh(meshes.size());
     std::optional<GroupCoding> still, grid;
     std::vector<std::function<void()>> codings;
@@ -225,6 +225,25 @@ std::vector<EncodedFrame> VideoEncoder::code_lifted_group(std::vector<GroupFrame
             on_mesh[k] =
                 code_group(*m.canvas.domain, m.canvas.group, std::move(m.coefficients), m.vertices,
                            m.motion, group_.motion, fine_step_[0], m.canvas.windows);
+        });
+    }
+    if (moved) {
+        codings.push_back([&] {
+            const std::vector<Vec2>& rest = domain_->shape().mesh.vertices;
+            std::vector<Planes> frames(n);
+            for (size_t t = 0; t < n; ++t) {
+                Pending& p = pending_[t];
+                if (p.still.empty()) {
+                    domain_->analyze(p.frame, rest, frames[t], options_.sampling,
+                                     options_.projection);
+                } else {
+                    frames[t] = std::move(p.still);
+                    domain_->analyze_samples(frames[t]);
+                }
+            }
+            still = code_group(
+                *domain_, group_, std::move(frames), std::vector<std::vector<Vec2>>(n, rest),
+                std::vector<std::vector<uint8_t>>(n), TwvMotion::none, fine_step_[0]);
         });
     }
     if (grid_domain_) {
@@ -238,25 +257,8 @@ std::vector<EncodedFrame> VideoEncoder::code_lifted_group(std::vector<GroupFrame
                               std::vector<std::vector<uint8_t>>(n), TwvMotion::none, fine_step_[1]);
         });
     }
-    if (moved) {
-        codings.push_back([&] {
-            const std::vector<Vec2>& rest = domain_->shape().mesh.vertices;
-            std::vector<Planes> frames(n);
-            for (size_t t = 0; t < n; ++t) {
-                domain_->analyze(pending_[t].frame, rest, frames[t], options_.sampling,
-                                 options_.projection);
-            }
-            still = code_group(
-                *domain_, group_, std::move(frames), std::vector<std::vector<Vec2>>(n, rest),
-                std::vector<std::vector<uint8_t>>(n), TwvMotion::none, fine_step_[0]);
-        });
-    }
-    parallel_for(
-        static_cast<int64_t>(codings.size()),
-        [&](int64_t begin, int64_t end) {
-            for (int64_t k = begin; k < end; ++k) codings[static_cast<size_t>(k)]();
-        },
-        1);
+    parallel_tasks(static_cast<int64_t>(codings.size()),
+                   [&](int64_t k) { codings[static_cast<size_t>(k)](); });
     size_t chosen = 0;
     for (size_t k = 1; k < meshes.size(); ++k) {
         if (better(*on_mesh[k], *on_mesh[chosen])) chosen = k;

@@ -200,6 +200,7 @@ class VideoEncoder {
         std::vector<Track> tracks = {};
         Vec2 offset = {};
         std::vector<Repeat> repeats = {};
+        Planes still = {};  // tracked lifted groups: its samples on the static mesh, once made
     };
     // Whether `frame` repeats the last pending frame (and the group has room for it); if so it
     // is kept as a repeat of it.

@@ -28,16 +28,18 @@ thread_local int serial_depth = 0;
 // thread of the program) runs its pieces itself: kernels give the same result on any split.
 class Pool {
   public:
-    // Runs piece(p) for p in [0, pieces); true if the pool took the job, false if it was busy.
-    bool run(int64_t pieces, const std::function<void(int64_t)>& piece) {
+    // Runs piece(p) for p in [0, pieces) on the caller and up to threads - 1 workers, each taking
+    // the next piece when it is free; true if the pool took the job, false if it was busy.
+    bool run(int64_t pieces, int threads, const std::function<void(int64_t)>& piece) {
         std::unique_lock job(job_mutex_, std::try_to_lock);
         if (!job.owns_lock()) return false;
-        grow(static_cast<int>(pieces) - 1);
+        grow(threads - 1);
         {
             const std::lock_guard lock(mutex_);
             piece_ = &piece;
             pieces_ = pieces;
             next_.store(0);
+            helpers_.store(threads - 1);
             finished_ = 0;
             ++generation_;
         }
@@ -77,6 +79,7 @@ class Pool {
                 wake_.wait(lock, [&] { return generation_ != seen && piece_ != nullptr; });
                 seen = generation_;
             }
+            if (helpers_.fetch_sub(1) <= 0) continue;  // the job has the threads it may use
             const int64_t ran = take();
             if (ran == 0) continue;
             const std::lock_guard lock(mutex_);
@@ -92,6 +95,7 @@ class Pool {
     std::atomic<const std::function<void(int64_t)>*> piece_{nullptr};
     std::atomic<int64_t> pieces_{0};
     std::atomic<int64_t> next_{0};
+    std::atomic<int> helpers_{0};  // workers that may still join the job
     int64_t finished_ = 0;
     uint64_t generation_ = 0;
     size_t workers_ = 0;  // guarded by job_mutex_
@@ -146,8 +150,33 @@ void parallel_for(int64_t n, const std::function<void(int64_t, int64_t)>& f, int
             if (!failure) failure = std::current_exception();
         }
     };
-    if (forked().load() || !pool().run(pieces, piece)) {
+    if (forked().load() || !pool().run(pieces, static_cast<int>(pieces), piece)) {
         for (int64_t p = 0; p < pieces; ++p) piece(p);
+    }
+    if (failure) std::rethrow_exception(failure);
+}
+
+void parallel_tasks(int64_t n, const std::function<void(int64_t)>& task) {
+    if (n <= 0) return;
+    const int threads =
+        serial_depth > 0 ? 1 : static_cast<int>(std::min<int64_t>(n, thread_count()));
+    if (threads == 1) {
+        for (int64_t k = 0; k < n; ++k) task(k);
+        return;
+    }
+    std::exception_ptr failure;
+    std::mutex mutex;
+    const std::function<void(int64_t)> piece = [&](int64_t k) {
+        const SerialScope no_nesting;
+        try {
+            task(k);
+        } catch (...) {
+            const std::lock_guard<std::mutex> lock(mutex);
+            if (!failure) failure = std::current_exception();
+        }
+    };
+    if (forked().load() || !pool().run(n, threads, piece)) {
+        for (int64_t k = 0; k < n; ++k) piece(k);
     }
     if (failure) std::rethrow_exception(failure);
 }

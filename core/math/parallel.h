@@ -29,4 +29,10 @@ class SerialScope {
 // when all are done. The first exception a piece throws is rethrown here.
 void parallel_for(int64_t n, const std::function<void(int64_t, int64_t)>& f, int64_t min_chunk = 1);
 
+// Calls task(k) for each k in [0, n) on up to thread_count() threads, each thread taking the next
+// task in order when it is free: for tasks of unequal size (put the longest first), where
+// parallel_for's even split would leave a core idle. Each task runs serially inside (no nesting).
+// The first exception a task throws is rethrown here, after every task has run.
+void parallel_tasks(int64_t n, const std::function<void(int64_t)>& task);
+
 }  // namespace tesswave
