@@ -220,6 +220,25 @@ void build_stars(LevelTopology& t) {
             }
         }
     }
+    // The regular vertices in the order of their first face, not of their ids: along a T1 edge
+    // the ids jump between the levels that made the vertices, and its vertices' faces and edges
+    // lie a patch row apart, so in id order every read missed the cache; in face order the reads
+    // ascend through each patch, which the prefetchers follow (the transform at 10^7 samples
+    // spent 38 % of its time here). Each vertex's update reads only edges and faces, so the order
+    // does not change a bit.
+    std::vector<int32_t> order(t.v_regular.size());
+    std::iota(order.begin(), order.end(), 0);
+    std::stable_sort(order.begin(), order.end(), [&](int32_t a, int32_t b) {
+        return t.v_regular_nb[a][4] < t.v_regular_nb[b][4];
+    });
+    HugeVector<int32_t> vertices(order.size());
+    HugeVector<std::array<int32_t, 8>> neighbours(order.size());
+    for (size_t i = 0; i < order.size(); ++i) {
+        vertices[i] = t.v_regular[order[i]];
+        neighbours[i] = t.v_regular_nb[order[i]];
+    }
+    t.v_regular = std::move(vertices);
+    t.v_regular_nb = std::move(neighbours);
 }
 
 struct RawCounts {
