@@ -150,12 +150,19 @@ void render_runs(const RenderPlan& plan, std::span<const std::span<const float>>
             std::vector<float> us(Places ? kRunPixels : 0), vs(us.size());
             for (int64_t q = begin; q < end; ++q) {
                 const int32_t* ids = plan.grid.data() + q * grid_size;
-                for (size_t c = 0; c < channels; ++c) {
-                    const float* __restrict x = planes[c].data();
-                    if constexpr (G > 0) {
-                        float* __restrict g = local.data() + c;
-                        for (int32_t k = 0; k < grid_size; ++k) g[k * L] = x[ids[k]];
-                    } else {
+                if constexpr (G > 0) {
+                    // A node's values of every plane at once: one pass over the ids, and each
+                    // node's group written whole.
+                    const float* x[C > 0 ? C : 1];
+                    for (size_t c = 0; c < channels; ++c) x[c] = planes[c].data();
+                    float* __restrict g = local.data();
+                    for (int32_t k = 0; k < grid_size; ++k) {
+                        const int32_t id = ids[k];
+                        for (size_t c = 0; c < channels; ++c) g[k * L + c] = x[c][id];
+                    }
+                } else {
+                    for (size_t c = 0; c < channels; ++c) {
+                        const float* __restrict x = planes[c].data();
                         float* __restrict g = local.data() + c * grid_size;
                         for (int32_t k = 0; k < grid_size; ++k) g[k] = x[ids[k]];
                     }
@@ -164,9 +171,9 @@ void render_runs(const RenderPlan& plan, std::span<const std::span<const float>>
                 // are interpolated: the staging gather above is otherwise most of the time.
                 if (q + 1 < end) {
                     const int32_t* next = ids + grid_size;
-                    for (size_t c = 0; c < channels; ++c) {
-                        const float* x = planes[c].data();
-                        for (int32_t k = 0; k < grid_size; ++k) __builtin_prefetch(x + next[k]);
+                    for (int32_t k = 0; k < grid_size; ++k) {
+                        for (size_t c = 0; c < channels; ++c)
+                            __builtin_prefetch(planes[c].data() + next[k]);
                     }
                 }
                 size_t i = starts[static_cast<size_t>(q)];
