@@ -118,11 +118,17 @@ TEST(Parallel, tasks_go_to_whichever_thread_is_free) {
         }
     });
     EXPECT_TRUE(waited);
-    EXPECT_THROW(parallel_tasks(6,
-                                [](int64_t k) {
-                                    if (k == 4) throw std::runtime_error("task failed");
-                                }),
-                 std::runtime_error);
+    for (int threads : {1, 2}) {  // the tasks after a failed one still run, on any count
+        set_thread_count(threads);
+        std::atomic<int> ran{0};
+        EXPECT_THROW(parallel_tasks(6,
+                                    [&](int64_t k) {
+                                        ++ran;
+                                        if (k == 1) throw std::runtime_error("task failed");
+                                    }),
+                     std::runtime_error);
+        EXPECT_EQ(ran.load(), 6) << threads << " threads";
+    }
     set_thread_count(0);
 }
 

@@ -129,6 +129,31 @@ int thread_count() {
 
 void set_thread_count(int threads) { configured().store(std::max(0, threads)); }
 
+namespace {
+
+// body(p) for each p in [0, pieces) on up to `threads` threads (the pool's, or the caller's
+// alone), each piece in a SerialScope; the first exception a piece throws is rethrown once every
+// piece has run.
+void run_pieces(int64_t pieces, int threads, const std::function<void(int64_t)>& body) {
+    std::exception_ptr failure;
+    std::mutex mutex;
+    const std::function<void(int64_t)> piece = [&](int64_t p) {
+        const SerialScope no_nesting;
+        try {
+            body(p);
+        } catch (...) {
+            const std::lock_guard<std::mutex> lock(mutex);
+            if (!failure) failure = std::current_exception();
+        }
+    };
+    if (threads <= 1 || forked().load() || !pool().run(pieces, threads, piece)) {
+        for (int64_t p = 0; p < pieces; ++p) piece(p);
+    }
+    if (failure) std::rethrow_exception(failure);
+}
+
+}  // namespace
+
 void parallel_for(int64_t n, const std::function<void(int64_t, int64_t)>& f, int64_t min_chunk) {
     if (n <= 0) return;
     const int64_t pieces =
@@ -139,46 +164,14 @@ void parallel_for(int64_t n, const std::function<void(int64_t, int64_t)>& f, int
         f(0, n);
         return;
     }
-    std::exception_ptr failure;
-    std::mutex mutex;
-    const std::function<void(int64_t)> piece = [&](int64_t p) {
-        const SerialScope no_nesting;
-        try {
-            f(n * p / pieces, n * (p + 1) / pieces);
-        } catch (...) {
-            const std::lock_guard<std::mutex> lock(mutex);
-            if (!failure) failure = std::current_exception();
-        }
-    };
-    if (forked().load() || !pool().run(pieces, static_cast<int>(pieces), piece)) {
-        for (int64_t p = 0; p < pieces; ++p) piece(p);
-    }
-    if (failure) std::rethrow_exception(failure);
+    run_pieces(pieces, static_cast<int>(pieces),
+               [&](int64_t p) { f(n * p / pieces, n * (p + 1) / pieces); });
 }
 
 void parallel_tasks(int64_t n, const std::function<void(int64_t)>& task) {
     if (n <= 0) return;
-    const int threads =
-        serial_depth > 0 ? 1 : static_cast<int>(std::min<int64_t>(n, thread_count()));
-    if (threads == 1) {
-        for (int64_t k = 0; k < n; ++k) task(k);
-        return;
-    }
-    std::exception_ptr failure;
-    std::mutex mutex;
-    const std::function<void(int64_t)> piece = [&](int64_t k) {
-        const SerialScope no_nesting;
-        try {
-            task(k);
-        } catch (...) {
-            const std::lock_guard<std::mutex> lock(mutex);
-            if (!failure) failure = std::current_exception();
-        }
-    };
-    if (forked().load() || !pool().run(n, threads, piece)) {
-        for (int64_t k = 0; k < n; ++k) piece(k);
-    }
-    if (failure) std::rethrow_exception(failure);
+    run_pieces(n, serial_depth > 0 ? 1 : static_cast<int>(std::min<int64_t>(n, thread_count())),
+               task);
 }
 
 }  // namespace tesswave
