@@ -219,6 +219,12 @@ VideoEncoder::GroupFrames VideoEncoder::fit_group(Canvas canvas) const {
     return out;
 }
 
+void VideoEncoder::sample_still(Pending& p) const {
+    if (!p.still.empty()) return;
+    domain_->sample(p.frame, domain_->shape().mesh.vertices, p.still, options_.sampling,
+                    options_.projection);
+}
+
 // The coefficients of the frames at their positions.
 void VideoEncoder::analyze_group(GroupFrames& m) const {
     report(options_.progress, 0.5, "sampling");
@@ -276,11 +282,8 @@ std::vector<EncodedFrame> VideoEncoder::code_pending(bool keep_rest) {
                     return;
                 }
                 const size_t first = (i - fits) * kStillFrames;
-                for (size_t j = first; j < std::min(still.size(), first + kStillFrames); ++j) {
-                    Pending& p = pending_[still[j]];
-                    domain_->sample(p.frame, domain_->shape().mesh.vertices, p.still,
-                                    options_.sampling, options_.projection);
-                }
+                for (size_t j = first; j < std::min(still.size(), first + kStillFrames); ++j)
+                    sample_still(pending_[still[j]]);
             });
             // The group runs as far as a fit holds; a mesh whose fit failed sooner is left out.
             n = 0;

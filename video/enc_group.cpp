@@ -232,14 +232,9 @@ std::vector<EncodedFrame> VideoEncoder::code_lifted_group(std::vector<GroupFrame
             const std::vector<Vec2>& rest = domain_->shape().mesh.vertices;
             std::vector<Planes> frames(n);
             for (size_t t = 0; t < n; ++t) {
-                Pending& p = pending_[t];
-                if (p.still.empty()) {
-                    domain_->analyze(p.frame, rest, frames[t], options_.sampling,
-                                     options_.projection);
-                } else {
-                    frames[t] = std::move(p.still);
-                    domain_->analyze_samples(frames[t]);
-                }
+                sample_still(pending_[t]);
+                frames[t] = std::move(pending_[t].still);
+                domain_->analyze_samples(frames[t]);
             }
             still = code_group(
                 *domain_, group_, std::move(frames), std::vector<std::vector<Vec2>>(n, rest),

@@ -230,6 +230,8 @@ class VideoEncoder {
     Canvas place_canvas() const;
     GroupFrames fit_group(Canvas canvas) const;
     void analyze_group(GroupFrames& frames) const;
+    // The frame's samples on the static mesh into p.still, unless they are there already.
+    void sample_still(Pending& p) const;
     // Codes the pending frames, in as many groups as their fits allow; with `keep_rest`, the
     // frames after the first group's failed fit stay pending as the next group's start.
     std::vector<EncodedFrame> code_pending(bool keep_rest = false);
