@@ -118,6 +118,24 @@ void BM_sample_full_density1(benchmark::State& state) {
     state.SetItemsProcessed(state.iterations() * int64_t{kWidth} * kHeight);
 }
 
+// Rendering at density 1 (as many samples as pixels, as remap reads), the plan made once.
+void BM_render_apply_density1(benchmark::State& state) {
+    const DensityOne& d = density_one();
+    static const std::vector<std::vector<float>> samples =
+        sample_image(setup().image, d.h, d.mesh.vertices);
+    static const RenderPlan plan =
+        plan_render(d.h, d.mesh.vertices, kWidth, kHeight, kWidth, kHeight);
+    const std::vector<std::span<const float>> planes(samples.begin(), samples.end());
+    Image out = make_image(kWidth, kHeight, 3, SampleFormat::f32);
+    for (auto _ : state) {
+        render_into(plan, planes, out);
+        benchmark::DoNotOptimize(out.planes[0].data());
+    }
+    state.SetItemsProcessed(state.iterations() * int64_t{kWidth} * kHeight);
+    state.counters["samples_per_pixel"] =
+        static_cast<double>(samples[0].size()) / (kWidth * kHeight);
+}
+
 void BM_project_density1(benchmark::State& state) {
     const DensityOne& d = density_one();
     int iterations = 0;
@@ -164,6 +182,7 @@ BENCHMARK(BM_cv_remap)
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 BENCHMARK(BM_render_apply)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_render_apply_density1)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_render_plan)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_sample_apply)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_sample_full)
