@@ -270,12 +270,12 @@ TEST(StillCodec, sizes_are_refused_before_any_pixel) {
 }
 
 // The file is the same to the byte on any thread count (the projections, the transform, the
-// rendering and the candidates' measurements share their work among the threads), at a size and
-// at a quality target.
+// rendering and the candidates' measurements share their work among the threads, and the
+// candidates are coded side by side), at a size, at a quality target and with neither.
 TEST(StillCodec, the_same_file_whatever_the_thread_count) {
     const Image image = scene(96, 80, 3);
     for (const StillOptions& o :
-         {StillOptions{.max_bytes = 960}, StillOptions{.target_psnr = 30}}) {
+         {StillOptions{.max_bytes = 960}, StillOptions{.target_psnr = 30}, StillOptions{}}) {
         set_thread_count(1);
         const StillResult one = compress_image(image, o);
         EXPECT_NE(one.sampling, "point");  // a projection won: more than one candidate was coded

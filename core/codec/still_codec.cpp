@@ -11,6 +11,7 @@
 #include "core/math/error.h"
 #include "core/math/grid_mesh.h"
 #include "core/math/metrics.h"
+#include "core/math/parallel.h"
 #include "core/math/sampling.h"
 #include "core/math/strings.h"
 #include "core/math/validate.h"
@@ -258,13 +259,17 @@ size_t pick(const std::vector<Coded>& c, const CodingDomain& domain, const Image
     }
     size_t shortest = c[0].bytes();
     for (const Coded& k : c) shortest = std::min(shortest, k.bytes());
+    // Each candidate's reconstruction on a thread of its own.
+    std::vector<double> psnr(c.size());
+    parallel_tasks(static_cast<int64_t>(c.size()), [&](int64_t i) {
+        const Coded& k = c[static_cast<size_t>(i)];
+        const size_t keep = std::min(k.stream.size(), shortest - k.head.size());
+        psnr[static_cast<size_t>(i)] = image_psnr(
+            image, reconstruct(domain, k.header, {k.stream.data(), keep}), k.header.bit_depth);
+    });
     double best_psnr = -INFINITY;
     for (size_t k = 0; k < c.size(); ++k) {
-        const size_t keep = std::min(c[k].stream.size(), shortest - c[k].head.size());
-        const double p =
-            image_psnr(image, reconstruct(domain, c[k].header, {c[k].stream.data(), keep}),
-                       c[k].header.bit_depth);
-        if (p > best_psnr) best = k, best_psnr = p;
+        if (psnr[k] > best_psnr) best = k, best_psnr = psnr[k];
     }
     return best;
 }
@@ -356,21 +361,38 @@ StillResult compress_image(const Image& image, const StillOptions& o) {
                 choices.push_back({Sampling::fit, fit.smoothness});
         }
     }
-    std::vector<Coded> coded;
+    std::vector<Coded> coded(choices.size());
     const auto part = [&](size_t k) {
         return progress_range(o.progress, 0.05 + 0.85 * k / choices.size(),
                               0.05 + 0.85 * (k + 1) / choices.size());
     };
-    // Consumes the coefficients `x` (analyze_fits lets its callback do so): at the reconstructions
-    // only the image, the stream and the decoder's planes are held.
+    // The candidates are coded side by side, as many at once as there are threads: each one's
+    // coding and measurements (the serial bit-plane coder, reconstructions) run on one thread,
+    // while the projections between batches share the threads. A batch's coefficients are
+    // quantized and freed as it is coded, so at most a batch of them is held at once.
+    struct Waiting {
+        size_t k;
+        Planes x;
+    };
+    std::vector<Waiting> batch;
+    const size_t batch_size = static_cast<size_t>(std::max(1, thread_count()));
+    const auto code_batch = [&] {
+        for (const Waiting& w : batch) report(part(w.k), 0.4, "coding");
+        parallel_tasks(static_cast<int64_t>(batch.size()), [&](int64_t i) {
+            Waiting& w = batch[static_cast<size_t>(i)];
+            IntPlanes q(h.channels, std::vector<int32_t>(layout.size, 0));
+            for (int c = 0; c < h.channels; ++c) {
+                quantize(layout, w.x[c], domain.band_steps(c, h.base_step), q[c]);
+            }
+            w.x = {};
+            coded[w.k] = code(domain, h, std::move(q), image, o, o.measure || choices.size() > 1);
+        });
+        batch.clear();
+    };
+    // Takes the coefficients `x` (analyze_fits lets its callback do so).
     const auto code_choice = [&](size_t k, Planes& x) {
-        IntPlanes q(h.channels, std::vector<int32_t>(layout.size, 0));
-        for (int c = 0; c < h.channels; ++c) {
-            quantize(layout, x[c], domain.band_steps(c, h.base_step), q[c]);
-        }
-        x = {};
-        report(part(k), 0.4, "coding");
-        coded.push_back(code(domain, h, std::move(q), image, o, o.measure || choices.size() > 1));
+        batch.push_back({k, std::move(x)});
+        if (batch.size() == batch_size || k + 1 == choices.size()) code_batch();
     };
     report(part(0), 0.0, "sampling");
     Planes point = domain.analyze(image, Sampling::point);
