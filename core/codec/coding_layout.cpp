@@ -4,6 +4,7 @@
 #include <cmath>
 #include <span>
 
+#include "core/math/parallel.h"
 #include "core/math/selection.h"
 
 namespace tesswave {
@@ -174,16 +175,17 @@ std::vector<double> grid_band_norms(int width, int height, int levels, GridWavel
     const int w = static_cast<int>(std::min<int64_t>(width, reach));
     const int h = static_cast<int>(std::min<int64_t>(height, reach));
     const std::vector<GridBand> bands = grid_bands(w, h, levels);
-    std::vector<float> x(static_cast<size_t>(w) * h);
-    std::vector<double> norms;
-    for (const GridBand& g : bands) {
-        std::fill(x.begin(), x.end(), 0.0f);
+    std::vector<double> norms(bands.size());
+    // A band a thread: each synthesizes an impulse at the band's centre.
+    parallel_tasks(static_cast<int64_t>(bands.size()), [&](int64_t b) {
+        const GridBand& g = bands[static_cast<size_t>(b)];
+        std::vector<float> x(static_cast<size_t>(w) * h, 0.0f);
         x[static_cast<size_t>(g.y0 + g.height / 2) * w + g.x0 + g.width / 2] = 1.0f;
         grid_inverse(x, w, h, {.wavelet = wavelet, .levels = levels});
         double energy = 0;
         for (float v : x) energy += double{v} * v;
-        norms.push_back(std::sqrt(energy));
-    }
+        norms[static_cast<size_t>(b)] = std::sqrt(energy);
+    });
     return norms;
 }
 
