@@ -32,6 +32,8 @@ namespace tesswave::cli {
 namespace {
 
 constexpr int kGifSide = 320;  // default longest side of a GIF morph (about 1.5 MB for 30 frames)
+// --loop keeps the frames it shows again on the way back while they take at most this much.
+constexpr double kLoopBytes = 512.0 * (1 << 20);
 
 struct MorphArgs {
     std::string a, b, output, points_a, points_b, triangles, mesh, schedule = "aware", bands,
@@ -257,23 +259,39 @@ void run_morph(const MorphArgs& a) {
         FrameSink sink(a.output, morph.width(), morph.height(), a.fps, a.h264);
         // --loop: A to B and back, without showing B or A twice in a row.
         const int total = a.loop && a.frames > 1 ? 2 * a.frames - 2 : a.frames;
-        auto time_of = [&](int k) {
-            const int step = k < a.frames ? k : 2 * (a.frames - 1) - k;
-            return a.frames == 1 ? 0.0 : static_cast<double>(step) / (a.frames - 1);
+        // Frame k shows the step step_of(k) of the way out, at time_of(k).
+        const auto step_of = [&](int k) { return k < a.frames ? k : 2 * (a.frames - 1) - k; };
+        const auto time_of = [&](int k) {
+            return a.frames == 1 ? 0.0 : static_cast<double>(step_of(k)) / (a.frames - 1);
         };
-        // Frames are independent: one per core at a time, written in order.
+        // The way back shows the way out's frames 1 .. N - 2 again: they are kept (while they fit
+        // within kLoopBytes) instead of rendered twice.
+        const double frame_bytes = static_cast<double>(morph.width()) * morph.height() *
+                                   static_cast<double>(std::max(ia.channels(), 3)) * sizeof(float);
+        const bool keep = total > a.frames && frame_bytes * (a.frames - 2) <= kLoopBytes;
+        std::vector<Image> kept(keep ? a.frames : 0);
+        // Frames are independent: one per core at a time, written in order (a kept frame has no
+        // future: it is taken from `kept` when its turn comes).
         const int lanes = std::clamp(thread_count(), 1, 8);
         std::deque<std::future<Image>> pending;
         for (int k = 0, next = 0; k < total; ++k) {
             for (; next < total && next < k + lanes; ++next) {
+                if (keep && next >= a.frames) {
+                    pending.emplace_back();
+                    continue;
+                }
                 pending.push_back(std::async(std::launch::async, [&morph, &fo, t = time_of(next)] {
                     return morph.frame(t, fo);
                 }));
             }
             bar.update(setup + (1 - setup) * k / total, "frames");
-            Image frame = pending.front().get();
+            const int step = step_of(k);
+            Image frame = pending.front().valid() ? pending.front().get() : std::move(kept[step]);
             pending.pop_front();
             sink.write(frame);
+            if (keep && k < a.frames && step >= 1 && step <= a.frames - 2) {
+                kept[step] = std::move(frame);
+            }
         }
         sink.finish();
         report["frames"] = total;

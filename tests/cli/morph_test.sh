@@ -68,7 +68,8 @@ fi
 check "morph --loop to PNG frames" "$tesswave" morph "$s/pair_a.png" "$s/pair_b.png" \
     --points-a "$s/pair_a.txt" --points-b "$s/pair_b.txt" --frames 4 --loop -o "$dir/loop"
 if [[ "$(ls "$dir/loop" | tr '\n' ' ')" == "frame_00000.png frame_00001.png frame_00002.png frame_00003.png frame_00004.png frame_00005.png " ]] &&
-    cmp -s "$dir/loop/frame_00001.png" "$dir/loop/frame_00005.png"; then
+    cmp -s "$dir/loop/frame_00001.png" "$dir/loop/frame_00005.png" &&
+    cmp -s "$dir/loop/frame_00002.png" "$dir/loop/frame_00004.png"; then
     pass "six frames, the way back mirrors the way there"
 else
     fail "loop frames: $(ls "$dir/loop" | tr '\n' ' ')"
