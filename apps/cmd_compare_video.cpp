@@ -101,6 +101,9 @@ ClipInfo probe_clip(const std::string& path, const CompareVideoArgs& a,
         throw Error(str(path, ": ", c.width, "x", c.height, " frames are under 8x8 (SSIM)"));
     }
     c.chroma_420 = source.chroma_subsampled();
+    c.source_codec = source.source_codec();
+    c.source_bpp = source.source_bits_per_pixel();
+    if (const std::string note = source_note(c); !note.empty()) warn("note: " + note);
     const int64_t limit = a.frames > 0 ? a.frames : INT64_MAX;
     while (c.frames < limit && source.read(shown)) ++c.frames;
     if (a.shown_frame >= c.frames) {
@@ -324,7 +327,10 @@ void add_compare_video_command(CLI::App& app) {
         "(4:2:0). Every method gets the same intra period (--group). VC-2 is not run unless "
         "--methods names it. "
         "BD-rates (Bjontegaard, on the achieved bpp) are against grid 5/3, Snow and x264 (those "
-        "run) and need 4 rates or more.\n"
+        "run) and need 4 rates or more. A clip that a block-transform codec coded (H.264, VP9, "
+        "...) gets a note with the source's codec and rate: a peer of its kind can code the "
+        "source's own blocks again (x264 on H.264), which favours it; a crop off the block grid "
+        "compares without that.\n"
         "Writes into the folder: results.csv, results.json, bd_rate.csv, summary.txt (the "
         "table printed), rd_<clip>.png (PSNR-Y and PSNR against bpp, one line per method) and "
         "frame_<clip>_<rate>.png (one decoded frame per method side by side with its bpp and "

@@ -105,6 +105,34 @@ TEST(FrameSource, reads_y4m_as_video_reader_does) {
     }
 }
 
+// A video file tells its codec and bits a pixel (its bit rate over its own pixels a second, not
+// the caller's rate); raw frames and folders tell none.
+TEST(FrameSource, a_video_file_tells_its_codec_and_rate) {
+    TempDir dir;
+    const std::string mp4 = dir / "clip.mp4", y4m = dir / "clip.y4m";
+    VideoWriter h264(mp4, 64, 48, {.fps = 10, .codec = VideoCodec::h264, .crf = 30});
+    VideoWriter raw(y4m, 64, 48, {.fps = 10, .codec = VideoCodec::rawvideo});
+    for (int t = 0; t < 10; ++t) {
+        h264.write(grid_frame(64, 48, t));
+        raw.write(grid_frame(64, 48, t));
+    }
+    h264.finish();
+    raw.finish();
+    const FrameSource coded(mp4);
+    EXPECT_EQ(coded.source_codec(), "h264");
+    const double bpp = coded.source_bits_per_pixel();
+    const double bytes = static_cast<double>(std::filesystem::file_size(mp4));
+    EXPECT_GT(bpp, 0);
+    EXPECT_LT(bpp, 8 * bytes / (64.0 * 48 * 10));  // at most the whole file's bits a pixel
+    EXPECT_DOUBLE_EQ(FrameSource(mp4, {.fps = 40}).source_bits_per_pixel(), bpp);
+    EXPECT_EQ(FrameSource(y4m).source_codec(), "rawvideo");
+    const std::filesystem::path frames = dir.path / "frames";
+    std::filesystem::create_directories(frames);
+    write_image(uniform(8, 6, 3, 1), (frames / "f1.png").string());
+    EXPECT_EQ(FrameSource(frames.string()).source_codec(), "");
+    EXPECT_EQ(FrameSource(frames.string()).source_bits_per_pixel(), 0);
+}
+
 TEST(FrameSource, folder_frames_come_in_natural_order) {
     TempDir dir;
     // Frame t is named names[t]; written out of order, with a file that is not an image.

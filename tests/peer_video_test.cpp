@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "core/eval/compare_video.h"
 #include "core/io/video_io.h"
 #include "core/math/error.h"
 #include "core/math/metrics.h"
@@ -243,6 +244,24 @@ TEST(PeerVideo, codec_names_round_trip) {
         EXPECT_EQ(peer_codec_from_name(peer_codec_name(codec)), codec);
     }
     EXPECT_THROW(peer_codec_from_name("h264"), Error);
+}
+
+// compare-video notes a clip that a block-transform codec coded, naming the codec, its rate and
+// the crop that avoids re-coding its blocks; raw frames, image folders and lossless codecs get
+// no note.
+TEST(CompareVideo, a_block_coded_source_gets_a_note) {
+    eval::ClipInfo clip{.path = "a/chaplin.mp4", .name = "chaplin.mp4", .stem = "chaplin"};
+    clip.source_codec = "h264";
+    clip.source_bpp = 0.0861;
+    const std::string note = eval::source_note(clip);
+    EXPECT_NE(note.find("chaplin.mp4 is h264 at 0.086 bpp"), std::string::npos) << note;
+    EXPECT_NE(note.find("crop="), std::string::npos) << note;
+    clip.source_bpp = 0;  // rate unknown: the note without it
+    EXPECT_NE(eval::source_note(clip).find("chaplin.mp4 is h264:"), std::string::npos);
+    for (const char* codec : {"", "rawvideo", "ffv1", "png"}) {
+        clip.source_codec = codec;
+        EXPECT_EQ(eval::source_note(clip), "") << codec;
+    }
 }
 
 }  // namespace

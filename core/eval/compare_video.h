@@ -39,8 +39,17 @@ struct ClipInfo {
     int64_t frames = 0;
     int64_t shown_frame = 0;  // the frame in the side-by-side pictures
     bool chroma_420 = false;  // the source's chroma is subsampled: ours code it one level coarser
+    // A video file's codec (FFmpeg's name) and bits a pixel (0: unknown); "" for folders, raw YUV.
+    std::string source_codec{};
+    double source_bpp = 0;
     double pixels() const { return static_cast<double>(width) * height * frames; }
 };
+
+// "" or a one-line note for a clip whose source was coded by a lossy block-transform codec: a
+// peer of the same kind (x264 on H.264) can code the source's own blocks again, near-exactly at
+// rates near the source's, which no other method can (chaplin.mp4, H.264 at 0.086 bpp: the moving
+// mesh against x264 +112 % as it is, +39 % on a crop 3 and 5 pixels off its block grid).
+std::string source_note(const ClipInfo& clip);
 
 // Everything a run needs besides the method and the rate.
 struct RunContext {

@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <cstring>
 #include <initializer_list>
+#include <set>
 #include <span>
 
 #include "core/eval/bd_rate.h"
@@ -229,7 +230,10 @@ nlohmann::json results_json(const std::vector<ClipInfo>& clips, const std::vecto
                               {"height", c.height},
                               {"fps", c.fps},
                               {"frames", c.frames},
-                              {"shown_frame", c.shown_frame}});
+                              {"shown_frame", c.shown_frame},
+                              {"source_codec", c.source_codec},
+                              {"source_bpp", number_or_null(c.source_bpp > 0 ? c.source_bpp : NAN)},
+                              {"source_note", source_note(c)}});
     }
     for (const VideoRow& r : rows) {
         nlohmann::json row = {{"clip", r.clip},       {"method", r.method},
@@ -263,12 +267,35 @@ nlohmann::json results_json(const std::vector<ClipInfo>& clips, const std::vecto
     return j;
 }
 
+std::string source_note(const ClipInfo& c) {
+    static const std::set<std::string, std::less<>> kBlockCodecs = {
+        "av1",        "h263",  "h264",   "hevc", "mjpeg", "mpeg1video",
+        "mpeg2video", "mpeg4", "theora", "vc1",  "vp8",   "vp9"};
+    if (!kBlockCodecs.contains(c.source_codec)) return "";
+    const std::string rate =
+        c.source_bpp > 0 ? str(" at ", std::lround(c.source_bpp * 1000) / 1000.0, " bpp") : "";
+    return str(c.name, " is ", c.source_codec, rate,
+               ": a peer of its kind (x264 on H.264) can code the source's own blocks again, at "
+               "rates near the source's almost exactly; a crop off its block grid (ffmpeg -vf "
+               "crop=iw-16:ih-16:3:5) compares without that");
+}
+
 std::string summary_table(const std::vector<ClipInfo>& clips, const std::vector<VideoRow>& rows,
                           const std::vector<BdRow>& bd) {
     std::string s;
     for (const ClipInfo& c : clips) {
-        s += str(c.name, ": ", c.width, "x", c.height, ", ", c.frames, " frames at ", c.fps,
-                 " fps; means over the frames; f/s: frames a second (all: encode and decode)\n");
+        const std::string source =
+            c.source_codec.empty()
+                ? ""
+                : str("; source ", c.source_codec,
+                      c.source_bpp > 0
+                          ? str(" at ", std::lround(c.source_bpp * 1000) / 1000.0, " bpp")
+                          : "");
+        s +=
+            str(c.name, ": ", c.width, "x", c.height, ", ", c.frames, " frames at ", c.fps, " fps",
+                source, "; means over the frames; f/s: frames a second (all: encode and decode)\n");
+        if (const std::string note = source_note(c); !note.empty())
+            s += str("  note: ", note, "\n");
         s += "  rate   method           bpp     kbps  PSNR-Y    PSNR    SSIM  enc f/s  dec f/s"
              "  all f/s  setting\n";
         for (const VideoRow& r : rows) {

@@ -87,6 +87,10 @@ struct Input {
     int64_t frame_count = -1;
     int64_t trailing_bytes = 0;
     bool subsampled = false;
+    // A video file's codec, bit rate (bits a second, 0: unknown) and own frame rate.
+    std::string codec;
+    int64_t bit_rate = 0;
+    double source_fps = 0;
 };
 
 class VideoInput : public Input {
@@ -98,6 +102,9 @@ class VideoInput : public Input {
         fps = reader_.fps();
         frame_count = reader_.frame_count_estimate();
         subsampled = reader_.chroma_subsampled();
+        codec = reader_.codec_name();
+        bit_rate = reader_.bit_rate();
+        source_fps = reader_.fps();
     }
     bool read(Image& frame) override { return reader_.read(frame); }
 
@@ -260,6 +267,12 @@ FrameSource& FrameSource::operator=(FrameSource&&) noexcept = default;
 
 int FrameSource::width() const { return state_->input->width; }
 bool FrameSource::chroma_subsampled() const { return state_->input->subsampled; }
+std::string FrameSource::source_codec() const { return state_->input->codec; }
+double FrameSource::source_bits_per_pixel() const {
+    const Input& in = *state_->input;
+    const double pixels_per_second = static_cast<double>(in.width) * in.height * in.source_fps;
+    return in.bit_rate > 0 && pixels_per_second > 0 ? in.bit_rate / pixels_per_second : 0.0;
+}
 int FrameSource::height() const { return state_->input->height; }
 double FrameSource::fps() const { return state_->input->fps; }
 int64_t FrameSource::frame_count_estimate() const { return state_->input->frame_count; }

@@ -56,6 +56,10 @@ class FrameSource {
     // Whether the source's chroma has fewer samples than its luma (a 4:2:0 or 4:2:2 video file
     // or raw .yuv); false for image folders and 4:4:4.
     bool chroma_subsampled() const;
+    // A video file's codec as FFmpeg names it and its bits a pixel (bit rate over pixels a
+    // second; 0 unknown); "" and 0 for folders and raw YUV.
+    std::string source_codec() const;
+    double source_bits_per_pixel() const;
 
     // Fills `frame` with the next frame (3 channels, width() x height()) and returns true, or
     // returns false at the end. Throws Error("<path>: frame 7 is 320x240, the clip is 352x288")

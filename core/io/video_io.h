@@ -145,6 +145,10 @@ class VideoReader {
     int bit_depth() const;
     // Whether the stream's chroma has fewer samples than its luma (4:2:0, 4:2:2, 4:1:1).
     bool chroma_subsampled() const;
+    // The stream's codec as FFmpeg names it ("h264", "vp8", "rawvideo", ...), and its bit rate in
+    // bits a second: the stream's, else the container's; 0 when neither is known.
+    std::string codec_name() const;
+    int64_t bit_rate() const;
 
     // Fills `frame` with the next frame (3 channels, width x height) and returns true, or
     // returns false at the end of the clip. Corrupt packets are skipped, as FFmpeg does. Throws

@@ -1,4 +1,5 @@
 // VideoReader (video_io.h): demux, decode and convert one frame at a time.
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <filesystem>
@@ -59,6 +60,8 @@ struct VideoReader::State {
     int height = 0;
     int depth = 8;
     bool subsampled = false;
+    std::string codec_name;
+    int64_t bit_rate = 0;
     int64_t frames = 0;    // returned so far
     bool pending = false;  // `decoded` holds a frame not yet returned
     bool demuxed = false;  // the demuxer is at its end and the decoder has been told
@@ -100,6 +103,9 @@ void VideoReader::State::open() {
         throw Error(str(path, ": ", st->codecpar->width, "x", st->codecpar->height,
                         " frames exceed the limit of ", options.max_pixels, " pixels"));
     }
+    codec_name = avcodec_get_name(st->codecpar->codec_id);
+    bit_rate =
+        st->codecpar->bit_rate > 0 ? st->codecpar->bit_rate : std::max<int64_t>(input->bit_rate, 0);
     decoder.reset(avcodec_alloc_context3(codec));
     if (!decoder) throw Error(path + ": out of memory for the decoder");
     libav::check(avcodec_parameters_to_context(decoder.get(), st->codecpar), path,
@@ -206,6 +212,8 @@ int VideoReader::width() const { return state_->width; }
 int VideoReader::height() const { return state_->height; }
 int VideoReader::bit_depth() const { return state_->depth; }
 bool VideoReader::chroma_subsampled() const { return state_->subsampled; }
+std::string VideoReader::codec_name() const { return state_->codec_name; }
+int64_t VideoReader::bit_rate() const { return state_->bit_rate; }
 
 double VideoReader::fps() const {
     const State& s = *state_;
