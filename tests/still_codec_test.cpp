@@ -292,6 +292,24 @@ TEST(StillCodec, the_same_file_whatever_the_thread_count) {
     set_thread_count(0);
 }
 
+// Decoding gives the same image to the bit on any thread count (the channels dequantized and the
+// planes synthesized side by side), on the mesh and on both fixed grids.
+TEST(StillCodec, the_same_image_whatever_the_thread_count) {
+    const Image image = scene(96, 80, 3);
+    for (const TwiTransform t : {TwiTransform::mesh, TwiTransform::grid97, TwiTransform::grid53}) {
+        set_thread_count(1);
+        const StillResult r = compress_image(image, {.transform = t, .max_bytes = 960});
+        const Image one = decompress_image(r.file, "test.twi");
+        for (const int threads : {2, 3}) {
+            set_thread_count(threads);
+            clear_domain_cache();
+            EXPECT_EQ(decompress_image(r.file, "test.twi").planes, one.planes)
+                << static_cast<int>(t) << ", " << threads << " threads";
+        }
+    }
+    set_thread_count(0);
+}
+
 // The domain cache hands back the domain it holds for an equal shape, probe count and norms,
 // builds a new one for any difference, keeps at most four, and a cached decode equals a fresh one.
 TEST(StillCodec, domains_are_cached_by_shape_probes_and_norms) {

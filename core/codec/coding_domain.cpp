@@ -359,18 +359,19 @@ void CodingDomain::to_image(const Planes& samples, std::span<const Vec2> vertice
 // coefficients stay in the lattice's Mallat layout), or back.
 void CodingDomain::lattice_transform(Planes& x, bool forward) const {
     const GridTransformOptions options{.wavelet = GridWavelet::cdf97, .levels = shape_.levels};
-    std::vector<float> lattice(lattice_.size());
-    for (auto& plane : x) {
+    // A plane a thread.
+    parallel_tasks(static_cast<int64_t>(x.size()), [&](int64_t c) {
+        std::vector<float>& plane = x[static_cast<size_t>(c)];
+        std::vector<float> lattice(lattice_.size());
         if (forward) {
             for (size_t i = 0; i < lattice_.size(); ++i) lattice[lattice_[i]] = plane[i];
             grid_forward(lattice, lattice_width_, lattice_height_, options);
-            plane.swap(lattice);
         } else {
             grid_inverse(plane, lattice_width_, lattice_height_, options);
             for (size_t i = 0; i < lattice_.size(); ++i) lattice[i] = plane[lattice_[i]];
-            plane.swap(lattice);
         }
-    }
+        plane.swap(lattice);
+    });
 }
 
 void CodingDomain::transform(Planes& x) const {
@@ -425,7 +426,9 @@ void CodingDomain::synthesis(Planes& x) const {
     } else if (hierarchy_) {
         inverse_transform(*hierarchy_, spans(x));
     } else {
-        for (auto& plane : x) grid_inverse(plane, shape_.width, shape_.height, grid_options());
+        parallel_tasks(static_cast<int64_t>(x.size()), [&](int64_t c) {
+            grid_inverse(x[static_cast<size_t>(c)], shape_.width, shape_.height, grid_options());
+        });
     }
 }
 

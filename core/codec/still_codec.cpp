@@ -131,10 +131,12 @@ Image reconstruct(const CodingDomain& domain, const TwiHeader& h, std::span<cons
     const BitplaneOptions bo{.shifts = h.shifts, .fast_start = h.version >= 2};
     DecodedPlanes d = decode_bitplanes(domain.layout(), h.planes, stream, bo);
     if (h.lossless) return domain.synthesize_int(integer_values(d));
-    Planes x(h.channels, std::vector<float>(domain.size()));
-    for (int c = 0; c < h.channels; ++c) {
-        dequantize(domain.layout(), d, c, domain.band_steps(c, h.base_step), false, x[c]);
-    }
+    Planes x(h.channels);
+    parallel_tasks(h.channels, [&](int64_t c) {  // a channel a thread
+        x[c].resize(domain.size());
+        dequantize(domain.layout(), d, static_cast<int>(c), domain.band_steps(c, h.base_step),
+                   false, x[c]);
+    });
     d = {};  // freed before the synthesis needs its planes
     return domain.synthesize(std::move(x));
 }
