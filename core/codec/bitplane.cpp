@@ -88,6 +88,7 @@ class Traversal {
           near_(value_.size(), std::vector<uint8_t>(layout.size, 0)),
           candidates_(value_.size(), std::vector<uint64_t>((layout.size + 63) / 64, 0)),
           significant_(value_.size(), std::vector<uint64_t>((layout.size + 63) / 64, 0)),
+          swept_(value_.size(), std::vector<uint8_t>(layout.bands.size(), kNone)),
           models_(layout.bands.size() * 4),
           grid_(!layout.grid_bands.empty()) {
         if (!options.fast_start) {
@@ -122,7 +123,10 @@ class Traversal {
                     const int p = t - shift(b);
                     for (size_t c = 0; c < planes_.size(); ++c) {
                         if (p < 0 || p >= planes_[c][b]) continue;
-                        if (!run_pass(pass, static_cast<int>(c), b, p)) return false;
+                        if (!run_pass(pass, static_cast<int>(c), b, p)) {
+                            settle_known();
+                            return false;
+                        }
                     }
                 }
                 if constexpr (std::is_same_v<Side, EncodeSide>) {
@@ -130,6 +134,7 @@ class Traversal {
                 }
             }
         }
+        settle_known();
         return true;
     }
 
@@ -354,8 +359,10 @@ class Traversal {
 
     // Run mode (EBCOT's): one decision for kRun isolated coefficients; when one of them turns
     // significant, the position of the first (2 bits) and its sign. Returns how many
-    // coefficients it settled (0 when the side stopped).
+    // coefficients it settled (0 when the side stopped; run_known_ then tells how many at k were
+    // found insignificant before the stop).
     int run(BandModels& m, uint8_t* state, Value* value, uint8_t* known, int32_t k, int p) {
+        run_known_ = 0;
         int first = kRun;
         if constexpr (std::is_same_v<Side, EncodeSide>) {
             for (int i = kRun - 1; i >= 0; --i) {
@@ -370,8 +377,9 @@ class Traversal {
             if (side_.stopped()) return 0;
             first = 2 * hi + lo;
         }
-        for (int i = 0; i < first; ++i) known[layout_.order[k + i]] = static_cast<uint8_t>(p);
+        // The coefficients it found still insignificant learn their plane in settle_known().
         if (!any) return kRun;
+        run_known_ = first;
         const int32_t id = layout_.order[k + first];
         if (!become_significant(m, state, k + first, id, p, value[id])) return 0;
         known[id] = static_cast<uint8_t>(p);
@@ -422,16 +430,64 @@ class Traversal {
         for (int32_t k = band.begin; k < band.end; ++k) {
             if ((k - band.begin) % kRun == 0 && k + kRun <= band.end && isolated_run(c, k)) {
                 const int settled = run(m, state, value, known, k, p);
-                if (settled == 0) return false;
+                if (settled == 0) return stopped_at(c, b, p, k + run_known_);
                 k += settled - 1;
                 continue;
             }
             const int32_t id = layout_.order[k];
             if ((state[id] & kSignificant) || known[id] == p) continue;
             const int nb = significant_neighbours(near, id), pa = parent_significant(state, id);
-            if (!significance(m, state, k, id, p, nb, pa, value[id], known[id])) return false;
+            if (!significance(m, state, k, id, p, nb, pa, value[id], known[id])) {
+                return stopped_at(c, b, p, k);
+            }
         }
+        swept_[c][b] = static_cast<uint8_t>(p);
         return true;
+    }
+
+    // Pass 2 of plane p of band b (channel c) stopped at position k: the coefficients before it
+    // were visited. Returns false.
+    bool stopped_at(int c, int b, int p, int32_t k) {
+        stop_ = {c, b, p, k};
+        return false;
+    }
+
+    // The decoder's `known` of the coefficients still insignificant: run mode visits them without
+    // writing it (a store through `order` a coefficient and plane, a tenth of a decode), so each
+    // takes here the lowest plane its band's pass 2 completed (every plane visits every
+    // insignificant coefficient once, in pass 0 or pass 2), or the plane of a pass 2 that stopped
+    // past it. The same values as writing them on the way.
+    void settle_known() {
+        if constexpr (std::is_same_v<Side, DecodeSide>) {
+            for (size_t c = 0; c < value_.size(); ++c) {
+                const uint8_t* state = state_[c].data();
+                uint8_t* known = known_[c].data();
+                for (size_t b = 0; b < layout_.bands.size(); ++b) {
+                    const uint8_t lowest = swept_[c][b];
+                    if (stop_.c == static_cast<int>(c) && stop_.b == static_cast<int>(b)) {
+                        const CodingBand& band = layout_.bands[b];
+                        for (int32_t k = band.begin; k < band.end; ++k) {
+                            const int32_t id = layout_.order[k];
+                            const int plane = k < stop_.k ? std::min<int>(lowest, stop_.p) : lowest;
+                            if (!(state[id] & kSignificant))
+                                known[id] = static_cast<uint8_t>(std::min<int>(known[id], plane));
+                        }
+                        continue;
+                    }
+                    // Branch-free, so that a grid's rows vectorize.
+                    const auto settle = [&](size_t id) {
+                        const uint8_t lower = std::min(known[id], lowest);
+                        known[id] = (state[id] & kSignificant) ? known[id] : lower;
+                    };
+                    for_band(
+                        layout_, b,
+                        [&](size_t first, int width) {
+                            for (int i = 0; i < width; ++i) settle(first + static_cast<size_t>(i));
+                        },
+                        [&](int32_t id) { settle(static_cast<size_t>(id)); });
+                }
+            }
+        }
     }
 
     const CodingLayout& layout_;
@@ -446,8 +502,17 @@ class Traversal {
     // neighbour or parent) and the significant coefficients, so that passes 0 and 1 skip the rest.
     std::vector<std::vector<uint64_t>> candidates_, significant_;
     std::vector<int32_t> position_;  // of each coefficient id in `order` (empty: the identity)
-    int c_ = 0;                      // the channel being coded
-    int band_ = -1;                  // and the band
+    // Per channel and band, the lowest plane whose pass 2 completed (kNone: none), and where a
+    // pass 2 stopped (the stream ran out), for settle_known().
+    std::vector<std::vector<uint8_t>> swept_;
+    struct Stop {
+        int c = -1, b = -1, p = 0;
+        int32_t k = 0;
+    };
+    Stop stop_;
+    int run_known_ = 0;  // see run()
+    int c_ = 0;          // the channel being coded
+    int band_ = -1;      // and the band
     // Grid layouts, the band being coded: its 8 neighbour offsets as ids and as positions, their
     // steps, and what each adds to a neighbour's counts (1 primary, 16 other).
     struct GridStar {

@@ -74,4 +74,18 @@ inline bool grid_primary(int type, int dx, int dy) {
 CodingLayout grid_layout(int width, int height, int levels, GridWavelet wavelet, bool norms = true,
                          GridRelations relations = GridRelations::computed);
 
+// Calls row(first, width) for every row of band b where the layout is a grid's (its bands are
+// rectangles of the Mallat plane: each row's coefficients lie side by side, so the row loops
+// vectorize), else one(id) for each of its coefficients in coding order.
+template <class Row, class One>
+void for_band(const CodingLayout& layout, size_t b, Row&& row, One&& one) {
+    if (!layout.grid_bands.empty()) {
+        const GridBand& r = layout.grid_bands[b];
+        for (int y = r.y0; y < r.y0 + r.height; ++y)
+            row(static_cast<size_t>(y) * layout.grid_width + r.x0, r.width);
+        return;
+    }
+    for (int32_t k = layout.bands[b].begin; k < layout.bands[b].end; ++k) one(layout.order[k]);
+}
+
 }  // namespace tesswave
