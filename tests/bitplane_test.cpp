@@ -147,6 +147,46 @@ TEST(Bitplane, every_prefix_decodes_the_high_bits_it_holds) {
     }
 }
 
+// Cut where a sweep's cleanup pass ends, every coefficient still insignificant knows at least the
+// plane of that sweep in its band (the cleanup visits all of them; run mode settles their planes
+// once at the end; the decoder may go on past the cut as far as the bytes determine), on grids and
+// meshes alike, with and without plane shifts. Knowing too much is every_prefix's check.
+TEST(Bitplane, a_cut_after_a_cleanup_pass_knows_that_plane_everywhere) {
+    for (const CodingLayout& layout :
+         {grid_layout(40, 24, 3, GridWavelet::cdf97, false), mesh_test_layout()}) {
+        const Planes32 q = random_coefficients(layout, 2, 5);
+        const PlaneCounts planes = count_planes(layout, views(q));
+        for (const int step : {0, 1}) {
+            std::vector<size_t> ends;
+            BitplaneOptions options{.shifts = std::vector<int>(layout.bands.size(), 0)};
+            for (size_t b = 0; b < options.shifts.size(); ++b)
+                options.shifts[b] = step * static_cast<int>(b % 2);
+            options.pass_ends = &ends;
+            const std::vector<uint8_t> stream = encode_bitplanes(layout, views(q), planes, options);
+            options.pass_ends = nullptr;
+            for (size_t t = 1; 3 * t + 2 < ends.size(); t += 2) {  // sweeps t = 1, 3, ...
+                const size_t cut = ends[3 * t + 2];
+                const DecodedPlanes d =
+                    decode_bitplanes(layout, planes, std::span(stream).first(cut), options);
+                for (size_t c = 0; c < q.size(); ++c) {
+                    for (size_t b = 0; b < layout.bands.size(); ++b) {
+                        const int p = static_cast<int>(t) - options.shifts[b];
+                        // A band's planes run from planes - 1 down: past its last, it is whole.
+                        const int expected = p >= planes[c][b] ? 32 : std::max(p, 0);
+                        for (int32_t k = layout.bands[b].begin; k < layout.bands[b].end; ++k) {
+                            const int32_t id = layout.order[k];
+                            if (d.value[c][id] != 0) continue;
+                            ASSERT_LE(d.known[c][id], expected)
+                                << "channel " << c << ", band " << b << ", sweep " << t
+                                << ", shifts " << step;
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
+
 TEST(Bitplane, the_byte_cap_stops_the_encoder_near_it) {
     const CodingLayout layout = grid_layout(64, 64, 3, GridWavelet::cdf53, false);
     const Planes32 q = random_coefficients(layout, 1, 3);
