@@ -41,6 +41,15 @@ struct BandModels {
 
 int channel_class(int channel) { return channel == 0 ? 0 : channel < 3 ? 1 : 2; }
 
+// n planes of `size` values v, each filled in place (copies of one filled plane would read it n
+// times over).
+template <class T>
+std::vector<std::vector<T>> filled(size_t n, size_t size, T v) {
+    std::vector<std::vector<T>> out(n);
+    for (auto& plane : out) plane.assign(size, v);
+    return out;
+}
+
 class EncodeSide {
   public:
     explicit EncodeSide(size_t max_bytes) : limit_(max_bytes) {}
@@ -84,10 +93,10 @@ class Traversal {
           value_(std::move(value)),
           known_(known),
           side_(side),
-          state_(value_.size(), std::vector<uint8_t>(layout.size, 0)),
-          near_(value_.size(), std::vector<uint8_t>(layout.size, 0)),
-          candidates_(value_.size(), std::vector<uint64_t>((layout.size + 63) / 64, 0)),
-          significant_(value_.size(), std::vector<uint64_t>((layout.size + 63) / 64, 0)),
+          state_(filled<uint8_t>(value_.size(), layout.size, 0)),
+          near_(filled<uint8_t>(value_.size(), layout.size, 0)),
+          candidates_(filled<uint64_t>(value_.size(), (layout.size + 63) / 64, 0)),
+          significant_(filled<uint64_t>(value_.size(), (layout.size + 63) / 64, 0)),
           swept_(value_.size(), std::vector<uint8_t>(layout.bands.size(), kNone)),
           models_(layout.bands.size() * 4),
           grid_(!layout.grid_bands.empty()) {
@@ -583,7 +592,7 @@ std::vector<uint8_t> encode_bitplanes(const CodingLayout& layout,
             throw Error("bit-plane coder: plane size does not match the layout");
         }
     }
-    std::vector<std::vector<uint8_t>> known(q.size(), std::vector<uint8_t>(layout.size, kNone));
+    std::vector<std::vector<uint8_t>> known = filled<uint8_t>(q.size(), layout.size, kNone);
     EncodeSide side(options.max_bytes);
     Traversal<EncodeSide>(layout, planes, options, {q.begin(), q.end()}, known, side).run();
     return side.finish();
@@ -593,8 +602,8 @@ DecodedPlanes decode_bitplanes(const CodingLayout& layout, const PlaneCounts& pl
                                std::span<const uint8_t> stream, const BitplaneOptions& options) {
     check_planes(layout, planes, options);
     DecodedPlanes out;
-    out.value.assign(planes.size(), std::vector<int32_t>(layout.size, 0));
-    out.known.assign(planes.size(), std::vector<uint8_t>(layout.size, kNone));
+    out.value = filled<int32_t>(planes.size(), layout.size, 0);
+    out.known = filled<uint8_t>(planes.size(), layout.size, kNone);
     DecodeSide side(stream);
     out.complete = Traversal<DecodeSide>(layout, planes, options,
                                          {out.value.begin(), out.value.end()}, out.known, side)
