@@ -301,5 +301,42 @@ TEST(Sampling, samples_are_identical_whatever_the_thread_count) {
     set_thread_count(0);
 }
 
+// The border nodes each quad writes, from T1's topology, are those the last quad holding them in
+// its grid would write: checked node by node against the grids themselves, at levels 1 to 3, on
+// a grid, a Voronoi mesh and the paper's mesh with features (whose curves split the samples).
+TEST(Sampling, each_border_node_is_written_by_the_last_quad_holding_it) {
+    for (const Mesh& mesh :
+         {grid_mesh(90, 60, 4, 3), voronoi_mesh(160, 120, {.sites = 25, .seed = 2}),
+          samples::paper_t0_with_features(100, 80)}) {
+        const Hierarchy h = build_hierarchy(mesh, {.levels = 3, .finest_topology = false});
+        const std::vector<uint8_t> owns = quad_border_ownership(h);
+        ASSERT_EQ(owns.size(), static_cast<size_t>(h.levels[1].num_faces()));
+        for (int level = 1; level <= 3; ++level) {
+            const LevelTopology& t = h.levels[level];
+            const int32_t m = t.patch_cells, side = m + 1;
+            std::vector<int32_t> last(static_cast<size_t>(t.n_vertices), -1);
+            for (size_t p = 0; p < owns.size(); ++p) {
+                for (int32_t i = 0; i < side * side; ++i) {
+                    const int32_t r = i / side, c = i % side;
+                    if (r == 0 || r == m || c == 0 || c == m)
+                        last[t.patch_grid[p * side * side + i]] = static_cast<int32_t>(p);
+                }
+            }
+            for (size_t p = 0; p < owns.size(); ++p) {
+                for (int32_t r = 0; r <= m; ++r) {
+                    for (int32_t c = 0; c <= m; ++c) {
+                        if (r != 0 && r != m && c != 0 && c != m) continue;
+                        const int32_t id = t.patch_grid[p * side * side + r * side + c];
+                        EXPECT_EQ((owns[p] & border_bit(r, c, m)) != 0,
+                                  last[id] == static_cast<int32_t>(p))
+                            << "level " << level << ", quad " << p << ", node (" << r << ", " << c
+                            << ")";
+                    }
+                }
+            }
+        }
+    }
+}
+
 }  // namespace
 }  // namespace tesswave

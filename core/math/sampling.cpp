@@ -152,6 +152,28 @@ std::vector<std::vector<float>> sample_image(const Image& image, const Hierarchy
     return out;
 }
 
+std::vector<uint8_t> quad_border_ownership(const Hierarchy& h) {
+    if (h.finest() < 1) return {};
+    const LevelTopology& t1 = h.levels[1];
+    if (!t1.topology)
+        throw Error("sampling: T1 has no topology");  // only T_J from J = 2 may lack it
+    std::vector<uint8_t> owns(static_cast<size_t>(t1.num_faces()), 0);
+    for (int32_t p = 0; p < t1.num_faces(); ++p) {
+        for (int s = 0; s < 4; ++s) {
+            // Side s runs from corner s to corner s + 1: the quads on both sides of that T1 edge
+            // hold its inner nodes, and every quad around a corner holds the corner.
+            const std::array<int32_t, 2>& faces = t1.edge_f[t1.face_e[4 * p + s]];
+            if (std::max(faces[0], faces[1]) == p) owns[p] |= uint8_t{1} << s;
+            const int32_t v = t1.face_v[4 * p + s];
+            int32_t last = -1;
+            for (int32_t i = t1.star_f_offsets[v]; i < t1.star_f_offsets[v + 1]; ++i)
+                last = std::max(last, t1.star_f[i]);
+            if (last == p) owns[p] |= uint8_t{16} << s;
+        }
+    }
+    return owns;
+}
+
 void sample_image_into(const Image& image, const Hierarchy& h, std::span<const Vec2> mesh_vertices,
                        std::span<const std::span<float>> out, const SampleOptions& options) {
     const int level = options.level < 0 ? h.finest() : options.level;
@@ -188,15 +210,7 @@ void sample_image_into(const Image& image, const Hierarchy& h, std::span<const V
     const int top = static_cast<int>(mips.size());
     // A sample on a quad's border belongs to several quads, which may read it at other pyramid
     // levels: the last quad in order that holds it writes it, whatever the thread count.
-    std::vector<int32_t> owner(static_cast<size_t>(t.n_vertices));
-    for (size_t p = 0; p < quads.size(); ++p) {
-        const int32_t* grid = &t.patch_grid[p * side * side];
-        for (int32_t k = 0; k <= m; ++k) {
-            for (int32_t i : {k, m * side + k, k * side, k * side + m}) {
-                owner[grid[i]] = static_cast<int32_t>(p);
-            }
-        }
-    }
+    const std::vector<uint8_t> owns = quad_border_ownership(h);
     std::vector<double> along(static_cast<size_t>(side));  // grid column c at c/m of a row
     for (int32_t c = 0; c <= m; ++c) along[c] = double(c) / m;
     std::vector<float*> planes(out.size());
@@ -225,8 +239,7 @@ void sample_image_into(const Image& image, const Hierarchy& h, std::span<const V
             const int32_t* ids = grid + r * side;
             const auto node = [&](int32_t c) {
                 const int32_t id = ids[c];
-                if ((border_row || c == 0 || c == m) && owner[id] != static_cast<int32_t>(p))
-                    return;
+                if ((border_row || c == 0 || c == m) && !(owns[p] & border_bit(r, c, m))) return;
                 const Vec2 pos = lerp(left, right, along[c]);
                 const Tap ta = bilinear_tap(a.width, a.height, inv_a, pos);
                 if (w1 == 0) {

@@ -65,6 +65,20 @@ void sample_image_into(const Image& image, const Hierarchy& hierarchy,
                        std::span<const Vec2> mesh_vertices, std::span<const std::span<float>> out,
                        const SampleOptions& options = {});
 
+// Which border nodes of its grid each T1 quad writes when sampling: a node that several quads
+// hold (on a T1 edge or at a T1 vertex) belongs to the last of them in order. Bit s (0..3): the
+// inner nodes of side s, which runs from corner s to corner s + 1 (grid row 0, column m, row m,
+// column 0); bit 4 + s: corner s (grid node (0, 0), (0, m), (m, m), (m, 0)). From T1's topology,
+// without a pass over the nodes.
+std::vector<uint8_t> quad_border_ownership(const Hierarchy& hierarchy);
+
+// The bit of quad_border_ownership for border node (r, c) of a grid of m cells a side.
+inline uint8_t border_bit(int32_t r, int32_t c, int32_t m) {
+    if (r == 0) return c == 0 ? 16 : c == m ? 32 : 1;
+    if (r == m) return c == m ? 64 : c == 0 ? 128 : 4;
+    return c == m ? 2 : 8;
+}
+
 // The level whose sample count is closest (in ratio) to `density` samples per pixel: J of a mesh
 // the caller gives (morph, analyze, the still codec's --mesh).
 int level_for_density(const Mesh& mesh, int pixels, double density, int max_level = 12);
