@@ -292,8 +292,9 @@ TEST(StillCodec, the_same_file_whatever_the_thread_count) {
     set_thread_count(0);
 }
 
-// Decoding gives the same image to the bit on any thread count (the channels dequantized and the
-// planes synthesized side by side), on the mesh and on both fixed grids.
+// Coding and decoding give the same file and image to the bit on any thread count (the planes
+// transformed, quantized, dequantized and synthesized side by side), on the mesh and on both
+// fixed grids.
 TEST(StillCodec, the_same_image_whatever_the_thread_count) {
     const Image image = scene(96, 80, 3);
     for (const TwiTransform t : {TwiTransform::mesh, TwiTransform::grid97, TwiTransform::grid53}) {
@@ -303,6 +304,8 @@ TEST(StillCodec, the_same_image_whatever_the_thread_count) {
         for (const int threads : {2, 3}) {
             set_thread_count(threads);
             clear_domain_cache();
+            EXPECT_EQ(compress_image(image, {.transform = t, .max_bytes = 960}).file, r.file)
+                << static_cast<int>(t) << ", " << threads << " threads";
             EXPECT_EQ(decompress_image(r.file, "test.twi").planes, one.planes)
                 << static_cast<int>(t) << ", " << threads << " threads";
         }

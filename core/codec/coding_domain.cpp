@@ -381,7 +381,9 @@ void CodingDomain::transform(Planes& x) const {
     } else if (hierarchy_) {
         forward_transform(*hierarchy_, spans(x));
     } else {
-        for (auto& plane : x) grid_forward(plane, shape_.width, shape_.height, grid_options());
+        parallel_tasks(static_cast<int64_t>(x.size()), [&](int64_t c) {  // a plane a thread
+            grid_forward(x[static_cast<size_t>(c)], shape_.width, shape_.height, grid_options());
+        });
     }
 }
 

@@ -378,17 +378,24 @@ StillResult compress_image(const Image& image, const StillOptions& o) {
     };
     std::vector<Waiting> batch;
     const size_t batch_size = static_cast<size_t>(std::max(1, thread_count()));
+    const auto code_one = [&](Waiting& w) {
+        IntPlanes q(h.channels);
+        parallel_tasks(h.channels, [&](int64_t c) {  // a channel a thread, when not nested
+            q[c].resize(layout.size);
+            quantize(layout, w.x[c], domain.band_steps(c, h.base_step), q[c]);
+        });
+        w.x = {};
+        coded[w.k] = code(domain, h, std::move(q), image, o, o.measure || choices.size() > 1);
+    };
     const auto code_batch = [&] {
         for (const Waiting& w : batch) report(part(w.k), 0.4, "coding");
-        parallel_tasks(static_cast<int64_t>(batch.size()), [&](int64_t i) {
-            Waiting& w = batch[static_cast<size_t>(i)];
-            IntPlanes q(h.channels, std::vector<int32_t>(layout.size, 0));
-            for (int c = 0; c < h.channels; ++c) {
-                quantize(layout, w.x[c], domain.band_steps(c, h.base_step), q[c]);
-            }
-            w.x = {};
-            coded[w.k] = code(domain, h, std::move(q), image, o, o.measure || choices.size() > 1);
-        });
+        // A lone candidate (a fixed grid's, or the last) keeps the threads for its own parts.
+        if (batch.size() == 1) {
+            code_one(batch[0]);
+        } else {
+            parallel_tasks(static_cast<int64_t>(batch.size()),
+                           [&](int64_t i) { code_one(batch[static_cast<size_t>(i)]); });
+        }
         batch.clear();
     };
     // Takes the coefficients `x` (analyze_fits lets its callback do so).
