@@ -267,14 +267,21 @@ nlohmann::json results_json(const std::vector<ClipInfo>& clips, const std::vecto
     return j;
 }
 
+namespace {
+
+// " at 0.086 bpp", or "" when the source's rate is unknown.
+std::string source_rate(const ClipInfo& c) {
+    return c.source_bpp > 0 ? str(" at ", std::lround(c.source_bpp * 1000) / 1000.0, " bpp") : "";
+}
+
+}  // namespace
+
 std::string source_note(const ClipInfo& c) {
     static const std::set<std::string, std::less<>> kBlockCodecs = {
         "av1",        "h263",  "h264",   "hevc", "mjpeg", "mpeg1video",
         "mpeg2video", "mpeg4", "theora", "vc1",  "vp8",   "vp9"};
     if (!kBlockCodecs.contains(c.source_codec)) return "";
-    const std::string rate =
-        c.source_bpp > 0 ? str(" at ", std::lround(c.source_bpp * 1000) / 1000.0, " bpp") : "";
-    return str(c.name, " is ", c.source_codec, rate,
+    return str(c.name, " is ", c.source_codec, source_rate(c),
                ": a peer of its kind (x264 on H.264) can code the source's own blocks again, at "
                "rates near the source's almost exactly; a crop off its block grid (ffmpeg -vf "
                "crop=iw-16:ih-16:3:5) compares without that");
@@ -285,12 +292,7 @@ std::string summary_table(const std::vector<ClipInfo>& clips, const std::vector<
     std::string s;
     for (const ClipInfo& c : clips) {
         const std::string source =
-            c.source_codec.empty()
-                ? ""
-                : str("; source ", c.source_codec,
-                      c.source_bpp > 0
-                          ? str(" at ", std::lround(c.source_bpp * 1000) / 1000.0, " bpp")
-                          : "");
+            c.source_codec.empty() ? "" : str("; source ", c.source_codec, source_rate(c));
         s +=
             str(c.name, ": ", c.width, "x", c.height, ", ", c.frames, " frames at ", c.fps, " fps",
                 source, "; means over the frames; f/s: frames a second (all: encode and decode)\n");
