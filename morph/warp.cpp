@@ -178,12 +178,6 @@ bool vector_fetch(const Image& image) {
 #endif
 }
 
-std::vector<float*> plane_pointers(Image& image) {
-    std::vector<float*> out(image.planes.size());
-    for (size_t c = 0; c < out.size(); ++c) out[c] = image.planes[c].data();
-    return out;
-}
-
 template <int Ch, int Weights, bool Both>
 void compose_with(const RenderPlan& plan, std::span<const std::span<const float>> planes,
                   const ResidualWarp& w, Image& out) {

@@ -24,6 +24,13 @@ struct Image {
 
 Image make_image(int width, int height, int channels, SampleFormat format = SampleFormat::u8);
 
+// One pointer a plane, for kernels that write pixels of every channel.
+inline std::vector<float*> plane_pointers(Image& image) {
+    std::vector<float*> out(image.planes.size());
+    for (size_t c = 0; c < out.size(); ++c) out[c] = image.planes[c].data();
+    return out;
+}
+
 // Calls f.template operator()<C>() with C = `channels` for 1 to 4, else C = 0 (any count): for
 // kernels that keep one pointer per channel in registers.
 template <class F>

@@ -178,8 +178,7 @@ void render_into(const RenderPlan& plan, std::span<const std::span<const float>>
                         " for ", planes.size(), " planes"));
     }
     const size_t channels = planes.size();
-    std::vector<float*> outs(channels);
-    for (size_t c = 0; c < channels; ++c) outs[c] = out.planes[c].data();
+    const std::vector<float*> outs = plane_pointers(out);
     with_channel_count(static_cast<int>(channels), [&]<int C>() {
         render_each<C>(plan, planes, [&](int32_t pixel, const float* values) {
             for (size_t c = 0; c < (C > 0 ? static_cast<size_t>(C) : channels); ++c)
