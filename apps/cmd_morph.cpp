@@ -1,17 +1,18 @@
 // tesswave morph / inbetween: morphs between two images on meshes of one topology, the frequency
 // bands blended on their own schedules.
+#include "cmd_morph.h"
+
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <deque>
 #include <filesystem>
+#include <functional>
 #include <future>
 #include <memory>
 #include <nlohmann/json.hpp>
 
 #include "cli.h"
-#include "core/eval/contact_sheet.h"
-#include "core/eval/peer_morph.h"
 #include "core/io/file_io.h"
 #include "core/io/image_io.h"
 #include "core/io/mesh_io.h"
@@ -35,17 +36,6 @@ constexpr int kGifSide = 320;  // default longest side of a GIF morph (about 1.5
 // --loop keeps the frames it shows again on the way back while they take at most this much.
 constexpr double kLoopBytes = 512.0 * (1 << 20);
 
-struct MorphArgs {
-    std::string a, b, output, points_a, points_b, triangles, mesh, schedule = "aware", bands,
-                                                                   schedule_file, shape, size;
-    bool automatic = false, faces = false, preview = false, overwrite = false, json = false,
-         loop = false;
-    int frames = 30, levels = 0;
-    H264Settings h264;
-    double fps = 25, at = -1, density = 2.0;
-    std::string sampling = "point";  // MorphOptions says why
-};
-
 // --at writes one image; otherwise the frames go to a FrameSink.
 void check_morph_output(const MorphArgs& a) {
     if (!a.mesh.empty() && a.mesh != "triangulation" && !is_mesh_generator(a.mesh)) {
@@ -68,13 +58,6 @@ void check_morph_output(const MorphArgs& a) {
             "--at", str(a.output, ": --at writes one image (.png, .tif, .jpg, .exr)"));
     }
 }
-
-// The points of a morph. `landmarks`: face landmarks or point files, which the mean-shape
-// triangulation takes; otherwise dense matches, which a fitted grid takes.
-struct Points {
-    morph::Correspondences c;
-    bool landmarks = true;
-};
 
 // With --auto: the face landmarks of both images when each holds a face (or --faces), else flow
 // and features.
@@ -116,6 +99,8 @@ bool face_points(const MorphArgs& a, const Image& ia, const Image& ib, morph::Co
     report["faces"] = {{"a", fa->found}, {"b", fb->found}, {"landmarks", c.a.size()}};
     return true;
 }
+
+}  // namespace
 
 Points correspondences(const MorphArgs& a, const Image& ia, const Image& ib, nlohmann::json& report,
                        const Progress& progress) {
@@ -163,6 +148,8 @@ morph::PairMeshes pair_meshes(const MorphArgs& a, const Points& p, const Image& 
     return morph::fitted_pair(generated_mesh(spec, ia.width, ia.height), c, ib.width, ib.height);
 }
 
+namespace {
+
 morph::Schedule schedule(const MorphArgs& a, int levels) {
     morph::Schedule s;
     if (!a.schedule_file.empty()) {
@@ -188,6 +175,49 @@ std::pair<int, int> morph_output_size(const MorphArgs& a, const Image& ia) {
                 std::max(1, static_cast<int>(std::lround(ia.height * s)))};
     }
     return {0, 0};
+}
+
+// The frames of a sequence (--frames, --loop) into `sink` in order; returns how many. `progress`
+// gets the part done; the caller finishes the sink.
+int write_frames(const morph::Morph& morph, const morph::FrameOptions& fo, const MorphArgs& a,
+                 int channels, FrameSink& sink, const std::function<void(double)>& progress) {
+    // --loop: A to B and back, without showing B or A twice in a row.
+    const int total = a.loop && a.frames > 1 ? 2 * a.frames - 2 : a.frames;
+    // Frame k shows the step step_of(k) of the way out, at time_of(k).
+    const auto step_of = [&](int k) { return k < a.frames ? k : 2 * (a.frames - 1) - k; };
+    const auto time_of = [&](int k) {
+        return a.frames == 1 ? 0.0 : static_cast<double>(step_of(k)) / (a.frames - 1);
+    };
+    // The way back shows the way out's frames 1 .. N - 2 again: they are kept (while they fit
+    // within kLoopBytes) instead of rendered twice.
+    const double frame_bytes = static_cast<double>(morph.width()) * morph.height() *
+                               static_cast<double>(channels) * sizeof(float);
+    const bool keep = total > a.frames && frame_bytes * (a.frames - 2) <= kLoopBytes;
+    std::vector<Image> kept(keep ? a.frames : 0);
+    // Frames are independent: one per core at a time, written in order (a kept frame has no
+    // future: it is taken from `kept` when its turn comes).
+    const int lanes = std::clamp(thread_count(), 1, 8);
+    std::deque<std::future<Image>> pending;
+    for (int k = 0, next = 0; k < total; ++k) {
+        for (; next < total && next < k + lanes; ++next) {
+            if (keep && next >= a.frames) {
+                pending.emplace_back();
+                continue;
+            }
+            pending.push_back(std::async(std::launch::async, [&morph, &fo, t = time_of(next)] {
+                return morph.frame(t, fo);
+            }));
+        }
+        progress(static_cast<double>(k) / total);
+        const int step = step_of(k);
+        Image frame = pending.front().valid() ? pending.front().get() : std::move(kept[step]);
+        pending.pop_front();
+        sink.write(frame);
+        if (keep && k < a.frames && step >= 1 && step <= a.frames - 2) {
+            kept[step] = std::move(frame);
+        }
+    }
+    return total;
 }
 
 void run_morph(const MorphArgs& a) {
@@ -257,42 +287,9 @@ void run_morph(const MorphArgs& a) {
         write_image(morph.frame(a.at, fo), a.output);
     } else {
         FrameSink sink(a.output, morph.width(), morph.height(), a.fps, a.h264);
-        // --loop: A to B and back, without showing B or A twice in a row.
-        const int total = a.loop && a.frames > 1 ? 2 * a.frames - 2 : a.frames;
-        // Frame k shows the step step_of(k) of the way out, at time_of(k).
-        const auto step_of = [&](int k) { return k < a.frames ? k : 2 * (a.frames - 1) - k; };
-        const auto time_of = [&](int k) {
-            return a.frames == 1 ? 0.0 : static_cast<double>(step_of(k)) / (a.frames - 1);
-        };
-        // The way back shows the way out's frames 1 .. N - 2 again: they are kept (while they fit
-        // within kLoopBytes) instead of rendered twice.
-        const double frame_bytes = static_cast<double>(morph.width()) * morph.height() *
-                                   static_cast<double>(std::max(ia.channels(), 3)) * sizeof(float);
-        const bool keep = total > a.frames && frame_bytes * (a.frames - 2) <= kLoopBytes;
-        std::vector<Image> kept(keep ? a.frames : 0);
-        // Frames are independent: one per core at a time, written in order (a kept frame has no
-        // future: it is taken from `kept` when its turn comes).
-        const int lanes = std::clamp(thread_count(), 1, 8);
-        std::deque<std::future<Image>> pending;
-        for (int k = 0, next = 0; k < total; ++k) {
-            for (; next < total && next < k + lanes; ++next) {
-                if (keep && next >= a.frames) {
-                    pending.emplace_back();
-                    continue;
-                }
-                pending.push_back(std::async(std::launch::async, [&morph, &fo, t = time_of(next)] {
-                    return morph.frame(t, fo);
-                }));
-            }
-            bar.update(setup + (1 - setup) * k / total, "frames");
-            const int step = step_of(k);
-            Image frame = pending.front().valid() ? pending.front().get() : std::move(kept[step]);
-            pending.pop_front();
-            sink.write(frame);
-            if (keep && k < a.frames && step >= 1 && step <= a.frames - 2) {
-                kept[step] = std::move(frame);
-            }
-        }
+        const int total =
+            write_frames(morph, fo, a, std::max(ia.channels(), 3), sink,
+                         [&](double done) { bar.update(setup + (1 - setup) * done, "frames"); });
         sink.finish();
         report["frames"] = total;
     }
@@ -305,128 +302,6 @@ void run_morph(const MorphArgs& a) {
                     a.output.c_str(), pair.description.c_str(), morph.levels(),
                     static_cast<long long>(morph.samples()), report["seconds"].get<double>());
     }
-}
-
-// compare-morph: the middle frames of the classic morph and of our schedules on the same points,
-// side by side with crops, and the measures of peer_morph.h.
-void run_compare_morph(const MorphArgs& a) {
-    const auto start = std::chrono::steady_clock::now();
-    const std::string ext = fs::path(a.output).extension().string();
-    if (ext != ".png" && ext != ".jpg" && ext != ".tif") {
-        throw CLI::ValidationError("-o", str(a.output, ": the contact sheet is an image (.png)"));
-    }
-    check_output(a.output, a.overwrite, {a.a, a.b});
-    const Image ia = read_input(a.a), ib = read_input(a.b);
-    morph::check_sample_estimate(a.a, ia.width, ia.height, a.density, a.levels);
-    // The landmark model loads while the faces are detected (after the images: an unreadable
-    // image is reported at once, not after the model's half second).
-    if (a.automatic) morph::prepare_faces();
-    nlohmann::json report = {{"a", a.a}, {"b", a.b}, {"output", a.output}, {"at", a.at}};
-    ProgressBar bar;
-    const Progress progress = [&bar](double done, const char* stage) { bar.update(done, stage); };
-    bar.update(0.0, "correspondences");
-    const Points points = correspondences(a, ia, ib, report, progress_range(progress, 0, 0.2));
-    const morph::PairMeshes pair = pair_meshes(a, points, ia, ib);
-    morph::check_samples(a.a, pair.a, ia.width, ia.height,
-                         {.levels = a.levels, .density = a.density});
-    report["correspondences"] = points.c.a.size();
-    report["mesh"] = pair.description;
-    if (!pair.repair.empty()) warn("note: " + pair.repair);
-    // Crops where faces show ghosts first: the eyes and the jaw line (iBUG layout, 68 points and
-    // more), else the centre; boxes on the shape at t.
-    std::vector<std::pair<std::string, std::array<int, 4>>> crops;
-    const auto box = [&](int from, int to, double pad) {
-        double x0 = 1e9, y0 = 1e9, x1 = -1e9, y1 = -1e9;
-        for (int k = from; k <= to; ++k) {
-            const Vec2 pa = points.c.a[k], pb = points.c.b[k];
-            const Vec2 p = (1 - a.at) * pa +
-                           a.at * Vec2{pb.x * ia.width / ib.width, pb.y * ia.height / ib.height};
-            x0 = std::min(x0, p.x), y0 = std::min(y0, p.y);
-            x1 = std::max(x1, p.x), y1 = std::max(y1, p.y);
-        }
-        const double w = x1 - x0, h = y1 - y0, m = pad * std::max(w, h);
-        return std::array<int, 4>{static_cast<int>(x0 - m), static_cast<int>(y0 - m),
-                                  static_cast<int>(w + 2 * m), static_cast<int>(h + 2 * m)};
-    };
-    if (points.landmarks && points.c.a.size() >= 68) {
-        crops.push_back({"eyes", box(36, 47, 0.15)});
-        crops.push_back({"jaw", box(4, 12, 0.1)});
-    } else {
-        crops.push_back({"centre", {ia.width / 3, ia.height / 3, ia.width / 3, ia.height / 3}});
-    }
-    struct Method {
-        std::string name;
-        Image middle, wa, wb;
-        MorphMeasures m = {};
-        double seconds = 0;
-    };
-    std::vector<Method> methods;
-    {
-        const auto t0 = std::chrono::steady_clock::now();
-        const ClassicMorph classic(ia, ib, pair.a, pair.b);
-        methods.push_back({"classic",
-                           classic.frame(a.at),
-                           classic.warped(a.at, 0),
-                           classic.warped(a.at, 1),
-                           {},
-                           0});
-        methods.back().seconds = seconds_since(t0);
-    }
-    const morph::ScheduleKind kinds[] = {morph::ScheduleKind::linear, morph::ScheduleKind::sharp,
-                                         morph::ScheduleKind::bands, morph::ScheduleKind::aware};
-    const char* names[] = {"linear", "sharp", "bands", "aware (default)"};
-    for (int k = 0; k < 4; ++k) {
-        bar.update(0.2 + 0.7 * k / 4, names[k]);
-        const auto t0 = std::chrono::steady_clock::now();
-        morph::MorphOptions o{.levels = a.levels, .density = a.density};
-        o.sampling = sampling_from_name(a.sampling);
-        o.schedule.kind = kinds[k];
-        const morph::Morph m(ia, ib, pair.a, pair.b, o);
-        methods.push_back({names[k], m.frame(a.at), m.warped(a.at, 0), m.warped(a.at, 1), {}, 0});
-        methods.back().seconds = seconds_since(t0);
-    }
-    bar.update(0.9, "measures");
-    std::vector<Image> tiles;
-    std::vector<std::string> captions;
-    const double frame_scale = std::min(1.0, 520.0 / std::max(ia.width, ia.height));
-    for (Method& m : methods) {
-        m.m = measure_middle(m.middle, m.wa, m.wb);
-        report["methods"][m.name] = {{"detail", m.m.detail},
-                                     {"kept", m.m.kept},
-                                     {"ghost", m.m.ghost},
-                                     {"seconds", m.seconds}};
-        tiles.push_back(crop_scaled(m.middle, 0, 0, ia.width, ia.height, frame_scale));
-        char caption[160];
-        std::snprintf(caption, sizeof caption, "%s: detail %.2f, kept %.2f, ghost %.2f",
-                      m.name.c_str(), m.m.detail, m.m.kept, m.m.ghost);
-        captions.push_back(caption);
-    }
-    for (const auto& [what, r] : crops) {
-        for (const Method& m : methods) {
-            const double scale = std::min(4.0, ia.width * frame_scale / std::max(1, r[2]));
-            tiles.push_back(crop_scaled(m.middle, r[0], r[1], r[2], r[3], scale));
-            captions.push_back(str(m.name, ", ", what));
-        }
-    }
-    write_image(contact_sheet(tiles, captions, {.columns = static_cast<int>(methods.size())}),
-                a.output);
-    bar.clear();
-    report["seconds"] = seconds_since(start);
-    if (a.json) {
-        std::printf("%s\n", report.dump(2).c_str());
-        return;
-    }
-    std::printf("%s + %s at t = %g: %s\n%-16s %7s %7s %7s %8s\n", a.a.c_str(), a.b.c_str(), a.at,
-                pair.description.c_str(), "method", "detail", "kept", "ghost", "seconds");
-    for (const Method& m : methods) {
-        std::printf("%-16s %7.3f %7.3f %7.3f %8.2f\n", m.name.c_str(), m.m.detail, m.m.kept,
-                    m.m.ghost, m.seconds);
-    }
-    std::printf(
-        "detail: the middle frame's detail energy over the endpoints'; kept: the same where "
-        "the endpoints correspond; ghost: detail matching one endpoint only (a dissolve: "
-        "1/2 where nothing corresponds). Sheet: %s\n",
-        a.output.c_str());
 }
 
 void add_schedule_options(CLI::App* cmd, MorphArgs& a) {
@@ -503,37 +378,7 @@ void add_morph_commands(CLI::App& app) {
         run_morph(*a);
     });
 
-    auto c = std::make_shared<MorphArgs>();
-    c->at = 0.5;
-    cmd = app.add_subcommand(
-        "compare-morph",
-        "The classic morph (triangle warps + dissolve) beside our schedules: middle frames, crops "
-        "and detail/ghost measures");
-    cmd->add_option("a", c->a, "First image")->required();
-    cmd->add_option("b", c->b, "Second image")->required();
-    cmd->add_option("-o,--output", c->output, "Contact sheet (.png)")->required();
-    points_a = cmd->add_option("--points-a", c->points_a, "Points on A: 'x y' lines or JSON");
-    points_b = cmd->add_option("--points-b", c->points_b, "The corresponding points on B");
-    points_a->needs(points_b);
-    points_b->needs(points_a);
-    cmd->add_flag("--faces", c->faces, "Use face landmarks (dlib) or fail when a face is missing")
-        ->excludes(points_a);
-    cmd->add_option("--mesh", c->mesh, "As in morph: triangulation, grid[:CxR] or voronoi[:N]");
-    cmd->add_option("--at", c->at, "The frame compared")
-        ->capture_default_str()
-        ->check(CLI::Range(0.0, 1.0));
-    cmd->add_option("--density", c->density, "Mesh samples per output pixel")
-        ->capture_default_str()
-        ->check(density_range());
-    cmd->add_option("-J,--levels", c->levels, "Mesh level J (default from --density)")
-        ->check(CLI::Range(1, 10));
-    add_sampling_option(cmd, c->sampling);
-    cmd->add_flag("-y,--overwrite", c->overwrite, "Overwrite the sheet");
-    cmd->add_flag("--json", c->json, "Print a JSON report");
-    cmd->callback([c] {
-        c->automatic = c->faces || c->points_a.empty();
-        run_compare_morph(*c);
-    });
+    add_compare_morph_command(app);
 
     struct InbetweenArgs {
         std::string f0, f1, output, schedule = "linear", shape;
