@@ -53,6 +53,43 @@ TEST(Render, every_pixel_is_written_exactly_once) {
 }
 
 // A constant renders to exactly that constant; a function linear in x, y renders to that
+
+// Each pixel's plan entry is its place in its quad by inverse_bilinear, one pixel at a time: the
+// cell (r m + c over (m+1)^2 nodes) and the fractions along c and r, rounded to 2^-16 (the four-
+// pixel kernels must give these bits on every run length, tails included).
+TEST(Render, plan_entries_are_each_pixels_inverse_bilinear_place) {
+    for (auto& [name, mesh] : cases()) {
+        SCOPED_TRACE(name);
+        const Hierarchy h = build_hierarchy(mesh, {.levels = 3});
+        const std::vector<Quad> quads = t1_quads(h, mesh.vertices);
+        for (auto [w, hgt] : {std::pair{97, 61}, {203, 117}}) {
+            const RenderPlan plan = plan_render(h, mesh.vertices, 97, 61, w, hgt);
+            const int32_t m = plan.cells;
+            const double sx = w / 97.0, sy = hgt / 61.0;
+            size_t entry = 0;
+            for (size_t q = 0; q + 1 < plan.quad_runs.size(); ++q) {
+                Quad scaled = quads[q];
+                for (Vec2& c : scaled) c = {c.x * sx, c.y * sy};
+                for (int32_t run = plan.quad_runs[q]; run < plan.quad_runs[q + 1]; ++run) {
+                    for (int32_t n = 0; n < plan.run_length[run]; ++n, ++entry) {
+                        const int32_t px = plan.run_start[run] + n;
+                        const UV uv = inverse_bilinear(scaled, {px % w + 0.5, px / w + 0.5});
+                        const double s = uv.u * m, r = uv.v * m;
+                        const int32_t c0 = std::min(static_cast<int32_t>(s), m - 1);
+                        const int32_t r0 = std::min(static_cast<int32_t>(r), m - 1);
+                        const auto fixed = [](double f) {
+                            return std::min(65535L, std::lround(f * 65536));
+                        };
+                        ASSERT_EQ(plan.cell[entry], r0 * (m + 1) + c0) << "pixel " << px;
+                        ASSERT_EQ(plan.st[entry][0], fixed(s - c0)) << "pixel " << px;
+                        ASSERT_EQ(plan.st[entry][1], fixed(r - r0)) << "pixel " << px;
+                    }
+                }
+            }
+            ASSERT_EQ(entry, plan.cell.size());
+        }
+    }
+}
 // function at the pixel centres (the level-J grid is the bilinear map of each quad).
 TEST(Render, constant_and_linear_functions_render_exactly) {
     for (auto& [name, mesh] : cases()) {

@@ -22,11 +22,23 @@ UV inverse_bilinear(const Quad& q, Vec2 p) { return QuadInverse(q)(p); }
 void QuadInverse::row(double x0, double y, int32_t count, double* u, double* v) const {
 #if defined(__x86_64__)
     static const bool avx2 = __builtin_cpu_supports("avx2");
-    const int32_t done = avx2 ? row_avx2(x0, y, count, u, v) : 0;
-#else
-    const int32_t done = 0;
+    if (avx2 && count >= 4) {
+        const int32_t fours = count - count % 4;
+        row_avx2(x0, y, 0, fours, u, v);
+        // The last four again, overlapping: the same values for the points done twice.
+        if (fours < count) row_avx2(x0, y, count - 4, count, u, v);
+        return;
+    }
+    if (avx2 && count > 0) {
+        // Four points of the same row, the ones past count discarded.
+        double u4[4], v4[4];
+        row_avx2(x0, y, 0, 4, u4, v4);
+        std::copy_n(u4, count, u);
+        std::copy_n(v4, count, v);
+        return;
+    }
 #endif
-    for (int32_t i = done; i < count; ++i) {
+    for (int32_t i = 0; i < count; ++i) {
         const UV uv = (*this)({x0 + i, y});
         u[i] = uv.u, v[i] = uv.v;
     }
@@ -72,10 +84,9 @@ TESSWAVE_AVX2 __m256d v_at4(const Edges4& e, __m256d px, __m256d u) {
 
 }  // namespace
 
-// The points in fours: operator() lane by lane, the same operations in the same order. Returns
-// how many points it did (a multiple of four); the caller does the rest.
-[[gnu::target("avx2")]] int32_t QuadInverse::row_avx2(double x0, double y, int32_t count, double* u,
-                                                      double* v) const {
+// The points in fours: operator() lane by lane, the same operations in the same order.
+[[gnu::target("avx2")]] void QuadInverse::row_avx2(double x0, double y, int32_t from, int32_t to,
+                                                   double* u, double* v) const {
     const __m256d zero = _mm256_setzero_pd(), sign = _mm256_set1_pd(-0.0);
     const __m256d inf = _mm256_set1_pd(INFINITY);
     const double wy = y - p00_.y;
@@ -95,8 +106,7 @@ TESSWAVE_AVX2 __m256d v_at4(const Edges4& e, __m256d px, __m256d u) {
                           _mm256_set1_pd(p10_.y - p00_.y),
                           _mm256_set1_pd(p11_.x - p01_.x),
                           _mm256_set1_pd(p11_.y - p01_.y)};
-    int32_t i = 0;
-    for (; i + 4 <= count; i += 4) {
+    for (int32_t i = from; i + 4 <= to; i += 4) {
         const __m256d px =
             _mm256_add_pd(_mm256_set1_pd(x0), _mm256_setr_pd(i, i + 1.0, i + 2.0, i + 3.0));
         const __m256d wx = _mm256_sub_pd(px, edges.p00x);
@@ -112,8 +122,9 @@ TESSWAVE_AVX2 __m256d v_at4(const Edges4& e, __m256d px, __m256d u) {
         const __m256d signed_disc =
             _mm256_or_pd(_mm256_andnot_pd(sign, disc), _mm256_and_pd(sign, B));
         const __m256d qv = _mm256_mul_pd(minus_half, _mm256_add_pd(B, signed_disc));
+        // -C / B where linear, else qv / A: one division of the selected operands.
         const __m256d r0 =
-            select4(linear, _mm256_div_pd(_mm256_xor_pd(C, sign), B), _mm256_div_pd(qv, A));
+            _mm256_div_pd(select4(linear, _mm256_xor_pd(C, sign), qv), select4(linear, B, A));
         const __m256d r1 = _mm256_div_pd(C, qv);
         const __m256d two = _mm256_andnot_pd(linear, _mm256_cmp_pd(qv, zero, _CMP_NEQ_UQ));
         const __m256d u0 = clamp01_4(r0), u1 = clamp01_4(r1);
@@ -132,7 +143,6 @@ TESSWAVE_AVX2 __m256d v_at4(const Edges4& e, __m256d px, __m256d u) {
         _mm256_storeu_pd(u + i, bu);
         _mm256_storeu_pd(v + i, clamp01_4(bv));
     }
-    return i;
 }
 #endif
 

@@ -81,11 +81,13 @@ class QuadInverse {
 
     // operator() for the points (x0 + i, y), 0 <= i < count, into u[i] and v[i], to the bit:
     // four points at a time with AVX2 where the processor has it (the same operations in the
-    // same order, both roots always and selects instead of branches).
+    // same order, both roots always and selects instead of branches), a row's last four
+    // overlapping the four before when count is not a multiple of four.
     void row(double x0, double y, int32_t count, double* u, double* v) const;
 
   private:
-    int32_t row_avx2(double x0, double y, int32_t count, double* u, double* v) const;
+    // Points i in [from, to) in fours (to - from a multiple of four).
+    void row_avx2(double x0, double y, int32_t from, int32_t to, double* u, double* v) const;
     double v_for(Vec2 p, double u) const {
         const Vec2 p0 = lerp(p00_, p10_, u), p1 = lerp(p01_, p11_, u), d = p1 - p0;
         return std::abs(d.x) > std::abs(d.y) ? (p.x - p0.x) / d.x : (p.y - p0.y) / d.y;

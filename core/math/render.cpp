@@ -9,6 +9,10 @@
 #include "core/math/parametrization.h"
 #include "core/math/strings.h"
 
+#if defined(__x86_64__)
+#include <immintrin.h>
+#endif
+
 namespace tesswave {
 namespace {
 
@@ -48,25 +52,87 @@ inline uint16_t fixed16(double f) {
     return static_cast<uint16_t>(std::min<int32_t>(65535, rounded));
 }
 
+// Plan entries [0, n) from the pixels' (u, v) (clamped to [0, 1]: a degenerate quad can leave
+// u outside it, as QuadInverse keeps the raw root when no root scores, and the cell and the
+// fractions must stay in range).
+void plan_entries(const double* u, const double* v, int32_t n, int32_t m, int32_t* cell,
+                  std::array<uint16_t, 2>* st) {
+    for (int32_t j = 0; j < n; ++j) {
+        const double s = std::clamp(u[j], 0.0, 1.0) * m, r = std::clamp(v[j], 0.0, 1.0) * m;
+        const int32_t c0 = std::min(static_cast<int32_t>(s), m - 1);
+        const int32_t r0 = std::min(static_cast<int32_t>(r), m - 1);
+        cell[j] = r0 * (m + 1) + c0;
+        st[j] = {fixed16(s - c0), fixed16(r - r0)};
+    }
+}
+
+#if defined(__x86_64__)
+#define TESSWAVE_AVX2 [[gnu::target("avx2"), gnu::always_inline]] inline
+
+// For four values x = clamp(u, 0, 1) m: the cell index min(int(x), m - 1) and fixed16(x - cell),
+// as plan_entries computes them (u is finite: QuadInverse's results are).
+TESSWAVE_AVX2 void cell_fraction4(__m256d u, __m256d m, __m128i last, __m128i& index,
+                                  __m128i& fraction) {
+    const __m256d zero = _mm256_setzero_pd(), one = _mm256_set1_pd(1.0);
+    // std::clamp(u, 0, 1): 0 if u < 0, else 1 if 1 < u, else u.
+    const __m256d clamped =
+        _mm256_blendv_pd(_mm256_blendv_pd(u, one, _mm256_cmp_pd(one, u, _CMP_LT_OQ)), zero,
+                         _mm256_cmp_pd(u, zero, _CMP_LT_OQ));
+    const __m256d x = _mm256_mul_pd(clamped, m);
+    index = _mm_min_epi32(_mm256_cvttpd_epi32(x), last);
+    const __m256d f =
+        _mm256_mul_pd(_mm256_sub_pd(x, _mm256_cvtepi32_pd(index)), _mm256_set1_pd(65536.0));
+    const __m128i whole = _mm256_cvttpd_epi32(f);
+    const __m256d half_up =
+        _mm256_cmp_pd(_mm256_sub_pd(f, _mm256_cvtepi32_pd(whole)), _mm256_set1_pd(0.5), _CMP_GE_OQ);
+    // The comparison's all-ones lanes, narrowed to int32, are -1: subtracting adds one.
+    const __m128i up = _mm256_cvtpd_epi32(_mm256_and_pd(half_up, _mm256_set1_pd(-1.0)));
+    fraction = _mm_min_epi32(_mm_sub_epi32(whole, up), _mm_set1_epi32(65535));
+}
+
+#undef TESSWAVE_AVX2
+
+// plan_entries four pixels at a time, the last four overlapping the four before; n >= 4.
+[[gnu::target("avx2")]] void plan_entries_avx2(const double* u, const double* v, int32_t n,
+                                               int32_t m, int32_t* cell,
+                                               std::array<uint16_t, 2>* st) {
+    const __m256d scale = _mm256_set1_pd(m);
+    const __m128i last = _mm_set1_epi32(m - 1), side = _mm_set1_epi32(m + 1);
+    for (int32_t next = 0; next < n; next += 4) {
+        const int32_t j = std::min(next, n - 4);
+        __m128i c0, fs, r0, fr;
+        cell_fraction4(_mm256_loadu_pd(u + j), scale, last, c0, fs);
+        cell_fraction4(_mm256_loadu_pd(v + j), scale, last, r0, fr);
+        _mm_storeu_si128(reinterpret_cast<__m128i*>(cell + j),
+                         _mm_add_epi32(_mm_mullo_epi32(r0, side), c0));
+        // st[j] = {s, r}: s in the low half of each 32-bit pair.
+        _mm_storeu_si128(reinterpret_cast<__m128i*>(st + j),
+                         _mm_or_si128(fs, _mm_slli_epi32(fr, 16)));
+    }
+}
+#endif
+
 // The plan entries of one row run of a quad: each pixel's grid cell and fractions, from the
 // quad's inverse bilinear map (QuadInverse::row, four pixels at a time) in chunks on the stack.
 void plan_run(const QuadInverse& inverse, int32_t first, int32_t length, int32_t k, int32_t m,
               int32_t* cell, std::array<uint16_t, 2>* st) {
     constexpr int32_t kChunk = 64;
     double u[kChunk], v[kChunk];
-    const int32_t side = m + 1;
+#if defined(__x86_64__)
+    static const bool avx2 = __builtin_cpu_supports("avx2");
+#else
+    constexpr bool avx2 = false;
+#endif
     for (int32_t done = 0; done < length; done += kChunk) {
         const int32_t n = std::min(kChunk, length - done);
         inverse.row(first + done + 0.5, k + 0.5, n, u, v);
-        for (int32_t j = 0; j < n; ++j) {
-            // A degenerate quad can leave u outside [0, 1] (QuadInverse keeps the raw root when no
-            // root scores): clamped, so that the cell and the fractions stay in range.
-            const double s = std::clamp(u[j], 0.0, 1.0) * m, r = std::clamp(v[j], 0.0, 1.0) * m;
-            const int32_t c0 = std::min(static_cast<int32_t>(s), m - 1);
-            const int32_t r0 = std::min(static_cast<int32_t>(r), m - 1);
-            cell[done + j] = r0 * side + c0;
-            st[done + j] = {fixed16(s - c0), fixed16(r - r0)};
+#if defined(__x86_64__)
+        if (avx2 && n >= 4) {
+            plan_entries_avx2(u, v, n, m, cell + done, st + done);
+            continue;
         }
+#endif
+        plan_entries(u, v, n, m, cell + done, st + done);
     }
 }
 
@@ -92,34 +158,67 @@ RenderPlan plan_render(const Hierarchy& h, std::span<const Vec2> mesh_vertices, 
     plan.samples = t.n_vertices;
     plan.cells = m;
     plan.grid.assign(t.patch_grid.begin(), t.patch_grid.end());
-    // First the runs of every quad (cheap, in order), then each quad's pixels at their known
-    // place in the plan (the inverse bilinear maps: the cost), quads shared among the cores.
-    plan.quad_runs.push_back(0);
-    std::vector<size_t> first_entry = {0};
-    for (Quad& q : quads) {
+    // First each quad's row runs, written at a bound on its rows (quads shared among the cores)
+    // and then gathered in order; then each quad's pixels at their place in the plan (the inverse
+    // bilinear maps: the cost), quads shared among the cores again.
+    const int64_t count = static_cast<int64_t>(quads.size());
+    // Quad q's runs are written at [rows[q], rows[q + 1]): room for one a row it spans.
+    std::vector<size_t> rows(quads.size() + 1, 0);
+    std::vector<int32_t> first_row(quads.size());
+    for (size_t qi = 0; qi < quads.size(); ++qi) {
+        Quad& q = quads[qi];
         for (Vec2& c : q) c = {c.x * sx, c.y * sy};
         double y0 = q[0].y, y1 = q[0].y;
         for (const Vec2& c : q) y0 = std::min(y0, c.y), y1 = std::max(y1, c.y);
         const int k0 = std::max(0, static_cast<int>(std::ceil(y0 - 0.5)));
         const int k1 = std::min(height, static_cast<int>(std::ceil(y1 - 0.5)));
-        size_t entries = first_entry.back();
-        for (int k = k0; k < k1; ++k) {
-            int first, last;
-            if (!row_span(q, k + 0.5, first, last)) continue;
-            first = std::max(first, 0);
-            last = std::min(last, width);
-            if (last <= first) continue;
-            plan.run_start.push_back(k * width + first);
-            plan.run_length.push_back(last - first);
-            entries += last - first;
-        }
-        plan.quad_runs.push_back(static_cast<int32_t>(plan.run_start.size()));
-        first_entry.push_back(entries);
+        first_row[qi] = k0;
+        rows[qi + 1] = rows[qi] + static_cast<size_t>(std::max(0, k1 - k0));
+    }
+    std::vector<int32_t> bound_start(rows.back());
+    std::vector<int32_t> bound_length(bound_start.size());
+    std::vector<int32_t> runs_of(quads.size()), pixels_of(quads.size());
+    parallel_for(
+        count,
+        [&](int64_t begin, int64_t end) {
+            for (int64_t qi = begin; qi < end; ++qi) {
+                int32_t runs = 0, pixels = 0;
+                const size_t at = rows[qi];
+                const int k1 = first_row[qi] + static_cast<int>(rows[qi + 1] - at);
+                for (int k = first_row[qi]; k < k1; ++k) {
+                    int first, last;
+                    if (!row_span(quads[qi], k + 0.5, first, last)) continue;
+                    first = std::max(first, 0);
+                    last = std::min(last, width);
+                    if (last <= first) continue;
+                    bound_start[at + runs] = k * width + first;
+                    bound_length[at + runs] = last - first;
+                    ++runs;
+                    pixels += last - first;
+                }
+                runs_of[qi] = runs;
+                pixels_of[qi] = pixels;
+            }
+        },
+        64);
+    plan.quad_runs.assign(quads.size() + 1, 0);
+    std::vector<size_t> first_entry(quads.size() + 1, 0);
+    for (size_t qi = 0; qi < quads.size(); ++qi) {
+        plan.quad_runs[qi + 1] = plan.quad_runs[qi] + runs_of[qi];
+        first_entry[qi + 1] = first_entry[qi] + static_cast<size_t>(pixels_of[qi]);
+    }
+    plan.run_start.resize(static_cast<size_t>(plan.quad_runs.back()));
+    plan.run_length.resize(plan.run_start.size());
+    for (size_t qi = 0; qi < quads.size(); ++qi) {
+        std::copy_n(bound_start.begin() + rows[qi], runs_of[qi],
+                    plan.run_start.begin() + plan.quad_runs[qi]);
+        std::copy_n(bound_length.begin() + rows[qi], runs_of[qi],
+                    plan.run_length.begin() + plan.quad_runs[qi]);
     }
     plan.cell.resize(first_entry.back());
     plan.st.resize(first_entry.back());
     parallel_for(
-        static_cast<int64_t>(quads.size()),
+        count,
         [&](int64_t begin, int64_t end) {
             for (int64_t qi = begin; qi < end; ++qi) {
                 const QuadInverse inverse(quads[qi]);

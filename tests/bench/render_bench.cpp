@@ -68,8 +68,10 @@ void BM_render_apply(benchmark::State& state) {
 }
 
 // Making the plan: rasterizing the T1 quads and inverting the bilinear map at every pixel.
+// state.range(0): threads.
 void BM_render_plan(benchmark::State& state) {
     const Setup& s = setup();
+    const RowThreads row(state.range(0));
     for (auto _ : state) {
         benchmark::DoNotOptimize(
             plan_render(s.h, s.mesh.vertices, kWidth, kHeight, kWidth, kHeight));
@@ -183,7 +185,12 @@ BENCHMARK(BM_cv_remap)
     ->UseRealTime();
 BENCHMARK(BM_render_apply)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_render_apply_density1)->Unit(benchmark::kMillisecond);
-BENCHMARK(BM_render_plan)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_render_plan)
+    ->ArgName("threads")
+    ->Arg(1)
+    ->Arg(2)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 BENCHMARK(BM_sample_apply)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_sample_full)
     ->ArgName("threads")
