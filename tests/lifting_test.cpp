@@ -285,10 +285,7 @@ TEST(Lifting, fast_kernel_equals_reference_bit_for_bit) {
     }
 }
 
-// Patches shared among threads (parallel.h) change nothing: on a mesh of thousands of patches,
-// the fast kernel on 1 and on 3 threads equals the reference kernel to the bit, both ways.
-TEST(Lifting, fast_kernel_is_bit_identical_on_any_thread_count) {
-    const Hierarchy h = build_hierarchy(grid_mesh(400, 300, 40, 30), {.levels = 4});
+void fast_kernel_matches_on_threads(const Hierarchy& h) {
     std::mt19937_64 rng(7);
     std::vector<float> input(h.num_samples(4));
     for (float& v : input) v = static_cast<float>(uniform(rng) * 255);
@@ -306,6 +303,16 @@ TEST(Lifting, fast_kernel_is_bit_identical_on_any_thread_count) {
         const std::span<float> bs[] = {back};
         inverse_transform(h, bs, {.kernel = LiftingKernel::reference});
         EXPECT_EQ(x, back) << threads << " threads, inverse";
+    }
+}
+
+// Patches and skeleton points shared among threads (parallel.h) change nothing: on meshes of
+// thousands of patches (a grid, and a Voronoi mesh with irregular vertices), the fast kernel on 1
+// and on 3 threads equals the reference kernel to the bit, both ways.
+TEST(Lifting, fast_kernel_is_bit_identical_on_any_thread_count) {
+    for (const Mesh& mesh :
+         {grid_mesh(400, 300, 40, 30), voronoi_mesh(400, 300, {.sites = 600, .seed = 3})}) {
+        fast_kernel_matches_on_threads(build_hierarchy(mesh, {.levels = 4}));
     }
     set_thread_count(0);
 }

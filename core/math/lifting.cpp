@@ -53,23 +53,50 @@ struct TableStep {
     Step<Rule> s;
     int sign;
 
+    // Each pass writes points of one kind and reads only the other kinds, so its points are
+    // shared among the cores in any order: the same bits.
+    static constexpr int64_t kPiece = 8192;
+
     void faces() const {
-        for (int32_t k = 0; k < s.t.num_faces(); ++k) s.x[s.n + s.E + k] += sign * s.face(k);
+        parallel_for(
+            s.t.num_faces(),
+            [&](int64_t begin, int64_t end) {
+                for (auto k = static_cast<int32_t>(begin); k < end; ++k)
+                    s.x[s.n + s.E + k] += sign * s.face(k);
+            },
+            kPiece);
     }
     void edges(int32_t count) const {
-        for (int32_t i = 0; i < count; ++i) s.x[s.n + i] += sign * s.edge(i);
+        parallel_for(
+            count,
+            [&](int64_t begin, int64_t end) {
+                for (auto i = static_cast<int32_t>(begin); i < end; ++i)
+                    s.x[s.n + i] += sign * s.edge(i);
+            },
+            kPiece);
     }
     void vertices() const {
         const LevelTopology& t = s.t;
         T* x = s.x;
-        for (size_t r = 0; r < t.v_regular.size(); ++r) {
-            const auto& nb = t.v_regular_nb[r];
-            const Acc se = Acc{0} + x[nb[0]] + x[nb[1]] + x[nb[2]] + x[nb[3]];
-            const Acc sf = Acc{0} + x[nb[4]] + x[nb[5]] + x[nb[6]] + x[nb[7]];
-            x[t.v_regular[r]] += sign * Step<Rule>::regular_vertex(se, sf);
-        }
-        for (int32_t v : t.v_irregular) x[v] += sign * s.vertex(v);
-        for (int32_t v : t.v_curve) x[v] += sign * s.vertex(v);
+        const auto regular = static_cast<int64_t>(t.v_regular.size());
+        const auto irregular = static_cast<int64_t>(t.v_irregular.size());
+        const auto curve = static_cast<int64_t>(t.v_curve.size());
+        parallel_for(
+            regular + irregular + curve,
+            [&](int64_t begin, int64_t end) {
+                for (int64_t r = begin; r < std::min(end, regular); ++r) {
+                    const auto& nb = t.v_regular_nb[r];
+                    const Acc se = Acc{0} + x[nb[0]] + x[nb[1]] + x[nb[2]] + x[nb[3]];
+                    const Acc sf = Acc{0} + x[nb[4]] + x[nb[5]] + x[nb[6]] + x[nb[7]];
+                    x[t.v_regular[r]] += sign * Step<Rule>::regular_vertex(se, sf);
+                }
+                for (int64_t i = std::max(begin, regular); i < end; ++i) {
+                    const int32_t v = i < regular + irregular ? t.v_irregular[i - regular]
+                                                              : t.v_curve[i - regular - irregular];
+                    x[v] += sign * s.vertex(v);
+                }
+            },
+            kPiece);
     }
 };
 

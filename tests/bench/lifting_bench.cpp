@@ -9,6 +9,7 @@
 #include "core/math/lifting.h"
 #include "core/math/parallel.h"
 #include "core/math/voronoi.h"
+#include "row_threads.h"
 
 namespace tesswave {
 namespace {
@@ -46,6 +47,12 @@ void BM_mesh_roundtrip_voronoi(benchmark::State& state) {
                   voronoi_mesh(4000, 3000, {.sites = sites, .seed = 1, .lloyd_iterations = 1}));
 }
 
+// The same on two threads (wall time): the patches and the skeleton's points shared.
+void BM_mesh_roundtrip_voronoi_two_threads(benchmark::State& state) {
+    const RowThreads row(2);
+    BM_mesh_roundtrip_voronoi(state);
+}
+
 // Cells so that the grid mesh has about `samples` samples at level 6 (4096 per cell).
 void BM_mesh_roundtrip_grid(benchmark::State& state) {
     const int cells = static_cast<int>(std::lround(std::sqrt(state.range(0) / 4096.0)));
@@ -72,6 +79,11 @@ BENCHMARK(BM_mesh_roundtrip_voronoi)
     ->Arg(1'000'000)
     ->Arg(10'000'000)
     ->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_mesh_roundtrip_voronoi_two_threads)
+    ->Arg(1'000'000)
+    ->Arg(10'000'000)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 BENCHMARK(BM_mesh_roundtrip_grid)
     ->Arg(100'000)
     ->Arg(1'000'000)
