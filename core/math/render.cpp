@@ -158,44 +158,36 @@ RenderPlan plan_render(const Hierarchy& h, std::span<const Vec2> mesh_vertices, 
     plan.samples = t.n_vertices;
     plan.cells = m;
     plan.grid.assign(t.patch_grid.begin(), t.patch_grid.end());
-    // First each quad's row runs, written at a bound on its rows (quads shared among the cores)
-    // and then gathered in order; then each quad's pixels at their place in the plan (the inverse
-    // bilinear maps: the cost), quads shared among the cores again.
+    // Two passes over the quads, each shared among the cores: the first counts each quad's row
+    // runs and pixels, the second (at the places the counts give) finds the runs again and
+    // writes them with their pixels' entries (the inverse bilinear maps: the cost).
     const int64_t count = static_cast<int64_t>(quads.size());
-    // Quad q's runs are written at [rows[q], rows[q + 1]): room for one a row it spans.
-    std::vector<size_t> rows(quads.size() + 1, 0);
-    std::vector<int32_t> first_row(quads.size());
+    std::vector<int32_t> first_row(quads.size()), last_row(quads.size());
     for (size_t qi = 0; qi < quads.size(); ++qi) {
         Quad& q = quads[qi];
         for (Vec2& c : q) c = {c.x * sx, c.y * sy};
         double y0 = q[0].y, y1 = q[0].y;
         for (const Vec2& c : q) y0 = std::min(y0, c.y), y1 = std::max(y1, c.y);
-        const int k0 = std::max(0, static_cast<int>(std::ceil(y0 - 0.5)));
-        const int k1 = std::min(height, static_cast<int>(std::ceil(y1 - 0.5)));
-        first_row[qi] = k0;
-        rows[qi + 1] = rows[qi] + static_cast<size_t>(std::max(0, k1 - k0));
+        first_row[qi] = std::max(0, static_cast<int>(std::ceil(y0 - 0.5)));
+        last_row[qi] = std::min(height, static_cast<int>(std::ceil(y1 - 0.5)));
     }
-    std::vector<int32_t> bound_start(rows.back());
-    std::vector<int32_t> bound_length(bound_start.size());
+    // f(k, first, last) for each row k of quad qi with pixel centres in it, columns [first, last).
+    const auto for_each_run = [&](int64_t qi, auto&& f) {
+        for (int k = first_row[qi]; k < last_row[qi]; ++k) {
+            int first, last;
+            if (!row_span(quads[qi], k + 0.5, first, last)) continue;
+            first = std::max(first, 0);
+            last = std::min(last, width);
+            if (last > first) f(k, first, last);
+        }
+    };
     std::vector<int32_t> runs_of(quads.size()), pixels_of(quads.size());
     parallel_for(
         count,
         [&](int64_t begin, int64_t end) {
             for (int64_t qi = begin; qi < end; ++qi) {
                 int32_t runs = 0, pixels = 0;
-                const size_t at = rows[qi];
-                const int k1 = first_row[qi] + static_cast<int>(rows[qi + 1] - at);
-                for (int k = first_row[qi]; k < k1; ++k) {
-                    int first, last;
-                    if (!row_span(quads[qi], k + 0.5, first, last)) continue;
-                    first = std::max(first, 0);
-                    last = std::min(last, width);
-                    if (last <= first) continue;
-                    bound_start[at + runs] = k * width + first;
-                    bound_length[at + runs] = last - first;
-                    ++runs;
-                    pixels += last - first;
-                }
+                for_each_run(qi, [&](int, int first, int last) { ++runs, pixels += last - first; });
                 runs_of[qi] = runs;
                 pixels_of[qi] = pixels;
             }
@@ -209,12 +201,6 @@ RenderPlan plan_render(const Hierarchy& h, std::span<const Vec2> mesh_vertices, 
     }
     plan.run_start.resize(static_cast<size_t>(plan.quad_runs.back()));
     plan.run_length.resize(plan.run_start.size());
-    for (size_t qi = 0; qi < quads.size(); ++qi) {
-        std::copy_n(bound_start.begin() + rows[qi], runs_of[qi],
-                    plan.run_start.begin() + plan.quad_runs[qi]);
-        std::copy_n(bound_length.begin() + rows[qi], runs_of[qi],
-                    plan.run_length.begin() + plan.quad_runs[qi]);
-    }
     plan.cell.resize(first_entry.back());
     plan.st.resize(first_entry.back());
     parallel_for(
@@ -222,14 +208,16 @@ RenderPlan plan_render(const Hierarchy& h, std::span<const Vec2> mesh_vertices, 
         [&](int64_t begin, int64_t end) {
             for (int64_t qi = begin; qi < end; ++qi) {
                 const QuadInverse inverse(quads[qi]);
+                int32_t run = plan.quad_runs[qi];
                 size_t e = first_entry[qi];
-                for (int32_t run = plan.quad_runs[qi]; run < plan.quad_runs[qi + 1]; ++run) {
-                    const int32_t k = plan.run_start[run] / width;
-                    const int32_t first = plan.run_start[run] % width;
-                    plan_run(inverse, first, plan.run_length[run], k, m, plan.cell.data() + e,
+                for_each_run(qi, [&](int k, int first, int last) {
+                    plan.run_start[run] = k * width + first;
+                    plan.run_length[run] = last - first;
+                    plan_run(inverse, first, last - first, k, m, plan.cell.data() + e,
                              plan.st.data() + e);
-                    e += static_cast<size_t>(plan.run_length[run]);
-                }
+                    ++run;
+                    e += static_cast<size_t>(last - first);
+                });
             }
         },
         16);
