@@ -52,8 +52,6 @@ TEST(Render, every_pixel_is_written_exactly_once) {
     }
 }
 
-// A constant renders to exactly that constant; a function linear in x, y renders to that
-
 // Each pixel's plan entry is its place in its quad by inverse_bilinear, one pixel at a time: the
 // cell (r m + c over (m+1)^2 nodes) and the fractions along c and r, rounded to 2^-16 (the four-
 // pixel kernels must give these bits on every run length, tails included).
@@ -90,6 +88,8 @@ TEST(Render, plan_entries_are_each_pixels_inverse_bilinear_place) {
         }
     }
 }
+
+// A constant renders to exactly that constant; a function linear in x, y renders to that
 // function at the pixel centres (the level-J grid is the bilinear map of each quad).
 TEST(Render, constant_and_linear_functions_render_exactly) {
     for (auto& [name, mesh] : cases()) {
