@@ -157,7 +157,15 @@ RenderPlan plan_render(const Hierarchy& h, std::span<const Vec2> mesh_vertices, 
     plan.level = level;
     plan.samples = t.n_vertices;
     plan.cells = m;
-    plan.grid.assign(t.patch_grid.begin(), t.patch_grid.end());
+    // Sized without zeroing and copied on all cores (7 MB at density 2 on 1280x720).
+    plan.grid.resize(t.patch_grid.size());
+    parallel_for(
+        static_cast<int64_t>(t.patch_grid.size()),
+        [&](int64_t begin, int64_t end) {
+            std::copy(t.patch_grid.begin() + begin, t.patch_grid.begin() + end,
+                      plan.grid.begin() + begin);
+        },
+        1 << 18);
     // Two passes over the quads, each shared among the cores: the first counts each quad's row
     // runs and pixels, the second (at the places the counts give) finds the runs again and
     // writes them with their pixels' entries (the inverse bilinear maps: the cost).
@@ -201,7 +209,7 @@ RenderPlan plan_render(const Hierarchy& h, std::span<const Vec2> mesh_vertices, 
     }
     plan.run_start.resize(static_cast<size_t>(plan.quad_runs.back()));
     plan.run_length.resize(plan.run_start.size());
-    plan.cell.resize(first_entry.back());
+    plan.cell.resize(first_entry.back());  // every entry is written below: not zeroed first
     plan.st.resize(first_entry.back());
     parallel_for(
         count,

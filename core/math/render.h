@@ -14,6 +14,7 @@
 #include "core/math/hierarchy.h"
 #include "core/math/image.h"
 #include "core/math/parallel.h"
+#include "core/math/raw_vector.h"
 
 #if defined(__SSE2__)
 #include <immintrin.h>
@@ -26,17 +27,17 @@ namespace tesswave {
 // stages one quad's grid of values at a time and interpolates its pixels from that small buffer.
 struct RenderPlan {
     int width = 0, height = 0, level = 0;
-    int32_t samples = 0;        // of the level: every plane needs at least this many values
-    int32_t cells = 0;          // m, cells a quad side
-    std::vector<int32_t> grid;  // the level's patch grids, (m+1)^2 sample ids a quad
+    int32_t samples = 0;      // of the level: every plane needs at least this many values
+    int32_t cells = 0;        // m, cells a quad side
+    RawVector<int32_t> grid;  // the level's patch grids, (m+1)^2 sample ids a quad
     // Pixels of a quad as row runs: run k covers pixels [run_start[k], run_start[k] +
     // run_length[k]) of the output, in order; quad q owns runs [quad_runs[q], quad_runs[q+1]).
     std::vector<int32_t> quad_runs;
     std::vector<int32_t> run_start, run_length;
     // Per pixel, in run order: the grid cell r (m+1) + c it lies in, and its fractions along c
     // and r in 16-bit fixed point (units of 2^-16; error below 2^-17 of a cell).
-    std::vector<int32_t> cell;
-    std::vector<std::array<uint16_t, 2>> st;
+    RawVector<int32_t> cell;
+    RawVector<std::array<uint16_t, 2>> st;
 };
 
 struct RenderOptions {
