@@ -7,6 +7,8 @@
 
 #include <immintrin.h>
 
+#include <cstdint>
+
 namespace tesswave::detail {
 
 // Four taps on an image at least 2x2 pixels, so that a tap's right and lower pixels are the next
@@ -17,18 +19,27 @@ struct Taps4 {
     __m128 tx, ty;
 };
 
-// bilinear_at for the four taps: each 64-bit gather reads a pixel and its right neighbour as one
-// pair, and the pairs are split into the left and the right pixels.
+// bilinear_at for the four taps. Each pixel and its right neighbour are read as one 64-bit load,
+// and the pairs are split into the left and the right pixels. Scalar loads, not gathers: on the
+// Zen 3 this project measures on, the two gathers a row took made sampling 15 % slower, and no
+// faster where the pixels were in the cache.
 [[gnu::target("avx2"), gnu::always_inline]] inline __m128 bilinear4(const float* plane,
                                                                     const Taps4& t) {
-    const __m256i split = _mm256_setr_epi32(0, 2, 4, 6, 1, 3, 5, 7);
-    const auto* pairs = reinterpret_cast<const long long*>(plane);
-    const __m256 row0 = _mm256_permutevar8x32_ps(
-        _mm256_castsi256_ps(_mm256_i32gather_epi64(pairs, t.i00, 4)), split);
-    const __m256 row1 = _mm256_permutevar8x32_ps(
-        _mm256_castsi256_ps(_mm256_i32gather_epi64(pairs, t.i10, 4)), split);
-    const __m128 p00 = _mm256_castps256_ps128(row0), p01 = _mm256_extractf128_ps(row0, 1);
-    const __m128 p10 = _mm256_castps256_ps128(row1), p11 = _mm256_extractf128_ps(row1, 1);
+    alignas(16) int32_t i00[4], i10[4];
+    _mm_store_si128(reinterpret_cast<__m128i*>(i00), t.i00);
+    _mm_store_si128(reinterpret_cast<__m128i*>(i10), t.i10);
+    const auto pair = [plane](int32_t i) {
+        return _mm_castpd_ps(_mm_load_sd(reinterpret_cast<const double*>(plane + i)));
+    };
+    // Pairs 0 and 1, 2 and 3 side by side, then the left pixels of all four and the right ones.
+    const __m128 top01 = _mm_movelh_ps(pair(i00[0]), pair(i00[1]));
+    const __m128 top23 = _mm_movelh_ps(pair(i00[2]), pair(i00[3]));
+    const __m128 bottom01 = _mm_movelh_ps(pair(i10[0]), pair(i10[1]));
+    const __m128 bottom23 = _mm_movelh_ps(pair(i10[2]), pair(i10[3]));
+    const __m128 p00 = _mm_shuffle_ps(top01, top23, _MM_SHUFFLE(2, 0, 2, 0));
+    const __m128 p01 = _mm_shuffle_ps(top01, top23, _MM_SHUFFLE(3, 1, 3, 1));
+    const __m128 p10 = _mm_shuffle_ps(bottom01, bottom23, _MM_SHUFFLE(2, 0, 2, 0));
+    const __m128 p11 = _mm_shuffle_ps(bottom01, bottom23, _MM_SHUFFLE(3, 1, 3, 1));
     const __m128 top = _mm_add_ps(p00, _mm_mul_ps(_mm_sub_ps(p01, p00), t.tx));
     const __m128 bottom = _mm_add_ps(p10, _mm_mul_ps(_mm_sub_ps(p11, p10), t.tx));
     return _mm_add_ps(top, _mm_mul_ps(_mm_sub_ps(bottom, top), t.ty));
