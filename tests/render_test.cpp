@@ -323,6 +323,45 @@ TEST(Sampling, inner_nodes_are_the_bilinear_tap_to_the_bit) {
     }
 }
 
+// The vector kernel (four nodes at a time: rows, border lists, pyramid blends) and the scalar one
+// give every sample to the bit: inner and border nodes, quads read at one pyramid level and quads
+// blending two, grids of 2 to 16 cells a side (rows shorter and longer than four inner nodes),
+// a mesh stretched past the image (clamped taps), and one and three channels.
+TEST(Sampling, vector_kernel_is_bit_identical_to_the_scalar_one) {
+    const Image scene = samples::scene_image(161, 117);
+    const Mesh mesh = voronoi_mesh(161, 117, {.sites = 30, .seed = 5});
+    std::vector<Vec2> stretched = mesh.vertices;
+    for (Vec2& v : stretched) v = {1.08 * v.x - 6.1, 1.08 * v.y - 4.3};
+    for (int channels : {1, 3}) {
+        Image image = make_image(161, 117, channels, SampleFormat::f32);
+        for (int c = 0; c < channels; ++c) image.planes[c] = scene.planes[c];
+        for (int levels : {2, 3, 4, 5}) {
+            const Hierarchy h = build_hierarchy(mesh, {.levels = levels});
+            for (bool prefilter : {false, true}) {
+                SCOPED_TRACE(::testing::Message() << channels << " channels, J = " << levels
+                                                  << (prefilter ? ", prefiltered" : ""));
+                const auto vector = sample_image(image, h, stretched, {.prefilter = prefilter});
+                const auto scalar =
+                    sample_image(image, h, stretched, {.prefilter = prefilter, .vector = false});
+                for (int c = 0; c < channels; ++c) {
+                    for (size_t i = 0; i < scalar[c].size(); ++i)
+                        ASSERT_EQ(vector[c][i], scalar[c][i])
+                            << "channel " << c << ", sample " << i;
+                }
+            }
+        }
+    }
+    // At J = 5 most quads read the image alone, and the largest blend in the 2x2 averages (7 % of
+    // the samples): both kinds were compared above.
+    const Hierarchy h = build_hierarchy(mesh, {.levels = 5});
+    const auto raw = sample_image(scene, h, stretched, {.prefilter = false});
+    const auto filtered = sample_image(scene, h, stretched);
+    size_t same = 0;
+    for (size_t i = 0; i < raw[0].size(); ++i) same += raw[0][i] == filtered[0][i];
+    EXPECT_GT(same, raw[0].size() / 10);
+    EXPECT_LT(same, raw[0].size() * 19 / 20);
+}
+
 // Quads are shared among the cores; a sample on a border between quads read at different
 // pyramid levels is written by one of them, the same whatever the thread count.
 TEST(Sampling, samples_are_identical_whatever_the_thread_count) {

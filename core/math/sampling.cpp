@@ -49,48 +49,87 @@ double pyramid_level(double size, int top) {
 }
 
 #if defined(__x86_64__)
-// Grid nodes c in [from, to) of one row of a quad, four at a time, read from `image` alone (no
-// pyramid blend): the node at lerp(left, right, t[c]), as bilinear_tap and bilinear_at read it,
-// the same operations in the same order (the clamps as std::clamp compares), so the same bits.
-// The image is at least 2x2 pixels, so that a node's right and lower pixels are the next ones (x1 =
-// x0 + 1, y1 = y0 + 1), and its pixel count fits int32 (the caller checks). Returns how many nodes
-// it did: all of them, or none when there are fewer than four.
-[[gnu::target("avx2")]] int32_t sample_row_avx2(const Image& image, double inv_size, Vec2 left,
-                                                Vec2 right, const double* t, int32_t from,
-                                                int32_t to, const int32_t* ids, float* const* out) {
-    const int w = image.width, h = image.height;
+// One pyramid level as the vector kernels read it: an image at least 2x2 pixels, so that a tap's
+// right and lower pixels are the next ones (x1 = x0 + 1, y1 = y0 + 1), whose pixel count fits
+// int32 (the caller checks), and its scale 2^-level.
+struct Level4 {
+    const Image* image;
+    double inv_size;
+};
+
+// The taps of four nodes at (px, py) on a level, as bilinear_tap makes them.
+[[gnu::target("avx2"), gnu::always_inline]] inline detail::Taps4 taps4(const Level4& level,
+                                                                       __m256d px, __m256d py) {
+    const Image& image = *level.image;
+    const __m256d inv = _mm256_set1_pd(level.inv_size), half = _mm256_set1_pd(0.5);
+    const __m256d zero = _mm256_setzero_pd();
+    const __m256d fx =
+        _mm256_min_pd(_mm256_set1_pd(image.width - 1.0),
+                      _mm256_max_pd(zero, _mm256_sub_pd(_mm256_mul_pd(px, inv), half)));
+    const __m256d fy =
+        _mm256_min_pd(_mm256_set1_pd(image.height - 1.0),
+                      _mm256_max_pd(zero, _mm256_sub_pd(_mm256_mul_pd(py, inv), half)));
+    const __m128i x0 = _mm_min_epi32(_mm256_cvttpd_epi32(fx), _mm_set1_epi32(image.width - 2));
+    const __m128i y0 = _mm_min_epi32(_mm256_cvttpd_epi32(fy), _mm_set1_epi32(image.height - 2));
+    const __m128 tx = _mm256_cvtpd_ps(_mm256_sub_pd(fx, _mm256_cvtepi32_pd(x0)));
+    const __m128 ty = _mm256_cvtpd_ps(_mm256_sub_pd(fy, _mm256_cvtepi32_pd(y0)));
+    return detail::taps4(x0, y0, image.width, tx, ty);
+}
+
+// Four nodes at (px, py), read from `a`, or from `a` and `b` blended by w1 when Blend, written to
+// out[ch][ids[k]]: the taps of bilinear_tap, read as bilinear_at reads them and blended as the
+// scalar nodes are, the same operations in the same order (the clamps as std::clamp compares), so
+// the same bits.
+template <bool Blend>
+[[gnu::target("avx2"), gnu::always_inline]] inline void sample4(const Level4& a, const Level4& b,
+                                                                __m128 w1, __m256d px, __m256d py,
+                                                                const int32_t* ids,
+                                                                float* const* out, int channels) {
+    const detail::Taps4 ta = taps4(a, px, py);
+    detail::Taps4 tb{};
+    if constexpr (Blend) tb = taps4(b, px, py);
+    for (int ch = 0; ch < channels; ++ch) {
+        __m128 v = detail::bilinear4(a.image->planes[ch].data(), ta);
+        if constexpr (Blend) {
+            const __m128 vb = detail::bilinear4(b.image->planes[ch].data(), tb);
+            v = _mm_add_ps(v, _mm_mul_ps(_mm_sub_ps(vb, v), w1));
+        }
+        alignas(16) float values[4];
+        _mm_store_ps(values, v);
+        float* to_plane = out[ch];
+        for (int k = 0; k < 4; ++k) to_plane[ids[k]] = values[k];
+    }
+}
+
+// Grid nodes c in [from, to) of one row of a quad, at lerp(left, right, t[c]) as lerp computes
+// it, four at a time. The last four may overlap the four before: those nodes get the same values
+// again. Needs at least four nodes.
+template <bool Blend>
+[[gnu::target("avx2")]] void sample_row_avx2(const Level4& a, const Level4& b, float w1, Vec2 left,
+                                             Vec2 right, const double* t, int32_t from, int32_t to,
+                                             const int32_t* ids, float* const* out, int channels) {
     const __m256d lx = _mm256_set1_pd(left.x), dx = _mm256_set1_pd(right.x - left.x);
     const __m256d ly = _mm256_set1_pd(left.y), dy = _mm256_set1_pd(right.y - left.y);
-    const __m256d inv = _mm256_set1_pd(inv_size), half = _mm256_set1_pd(0.5);
-    const __m256d zero = _mm256_setzero_pd();
-    const __m256d x_hi = _mm256_set1_pd(w - 1.0), y_hi = _mm256_set1_pd(h - 1.0);
-    const __m128i x0_hi = _mm_set1_epi32(std::max(w - 2, 0)),
-                  y0_hi = _mm_set1_epi32(std::max(h - 2, 0));
-    const int channels = image.channels();
-    if (to - from < 4) return 0;
+    const __m128 weight = _mm_set1_ps(w1);
     for (int32_t next = from; next < to; next += 4) {
-        // The last four may overlap the four before: those nodes get the same values again.
         const int32_t c = std::min(next, to - 4);
         const __m256d tc = _mm256_loadu_pd(t + c);
-        const __m256d px = _mm256_add_pd(lx, _mm256_mul_pd(tc, dx));
-        const __m256d py = _mm256_add_pd(ly, _mm256_mul_pd(tc, dy));
-        const __m256d fx =
-            _mm256_min_pd(x_hi, _mm256_max_pd(zero, _mm256_sub_pd(_mm256_mul_pd(px, inv), half)));
-        const __m256d fy =
-            _mm256_min_pd(y_hi, _mm256_max_pd(zero, _mm256_sub_pd(_mm256_mul_pd(py, inv), half)));
-        const __m128i x0 = _mm_min_epi32(_mm256_cvttpd_epi32(fx), x0_hi);
-        const __m128i y0 = _mm_min_epi32(_mm256_cvttpd_epi32(fy), y0_hi);
-        const __m128 tx = _mm256_cvtpd_ps(_mm256_sub_pd(fx, _mm256_cvtepi32_pd(x0)));
-        const __m128 ty = _mm256_cvtpd_ps(_mm256_sub_pd(fy, _mm256_cvtepi32_pd(y0)));
-        const detail::Taps4 taps = detail::taps4(x0, y0, w, tx, ty);
-        for (int ch = 0; ch < channels; ++ch) {
-            alignas(16) float v[4];
-            _mm_store_ps(v, detail::bilinear4(image.planes[ch].data(), taps));
-            float* to_plane = out[ch];
-            for (int k = 0; k < 4; ++k) to_plane[ids[c + k]] = v[k];
-        }
+        sample4<Blend>(a, b, weight, _mm256_add_pd(lx, _mm256_mul_pd(tc, dx)),
+                       _mm256_add_pd(ly, _mm256_mul_pd(tc, dy)), ids + c, out, channels);
     }
-    return to - from;
+}
+
+// Nodes k in [0, n) at (x[k], y[k]), four at a time, the last four overlapping; n >= 4.
+template <bool Blend>
+[[gnu::target("avx2")]] void sample_list_avx2(const Level4& a, const Level4& b, float w1,
+                                              const double* x, const double* y, const int32_t* ids,
+                                              int32_t n, float* const* out, int channels) {
+    const __m128 weight = _mm_set1_ps(w1);
+    for (int32_t next = 0; next < n; next += 4) {
+        const int32_t k = std::min(next, n - 4);
+        sample4<Blend>(a, b, weight, _mm256_loadu_pd(x + k), _mm256_loadu_pd(y + k), ids + k, out,
+                       channels);
+    }
 }
 #endif
 
@@ -218,11 +257,17 @@ void sample_image_into(const Image& image, const Hierarchy& h, std::span<const V
 #if defined(__x86_64__)
     // The vector rows index pixels with int32.
     static const bool has_avx2 = __builtin_cpu_supports("avx2");
-    const bool avx2 = has_avx2 && int64_t{image.width} * image.height <= INT32_MAX;
+    const bool avx2 =
+        options.vector && has_avx2 && int64_t{image.width} * image.height <= INT32_MAX;
 #endif
     // Quad by quad along its grid rows, so that image reads stay local. Grid node (r, c) is the
-    // bilinear map at (c/m, r/m): the position refinement gives it (DESIGN.md 2.2).
-    const auto sample_quad = [&](size_t p) {
+    // bilinear map at (c/m, r/m): the position refinement gives it (DESIGN.md 2.2). `edge` holds a
+    // quad's border nodes that it writes, for the vector kernel (one list per piece of quads).
+    struct Nodes {
+        std::vector<double> x, y;
+        std::vector<int32_t> ids;
+    };
+    const auto sample_quad = [&](size_t p, [[maybe_unused]] Nodes& edge) {
         const Quad& q = quads[p];
         const double size = std::sqrt(std::abs(signed_area(q))) / m;
         const double lod = top == 0 ? 0.0 : pyramid_level(size, top);
@@ -232,41 +277,74 @@ void sample_image_into(const Image& image, const Hierarchy& h, std::span<const V
         const Image& b = pyramid(l1);
         const double inv_a = std::ldexp(1.0, -l0), inv_b = std::ldexp(1.0, -l1);
         const int32_t* grid = &t.patch_grid[p * side * side];
+        const auto write = [&](Vec2 pos, int32_t id) {
+            const Tap ta = bilinear_tap(a.width, a.height, inv_a, pos);
+            if (w1 == 0) {
+                for (int ch = 0; ch < channels; ++ch)
+                    out[ch][id] = bilinear_at(ta, a.planes[ch].data());
+            } else {
+                const Tap tb = bilinear_tap(b.width, b.height, inv_b, pos);
+                for (int ch = 0; ch < channels; ++ch) {
+                    const float va = bilinear_at(ta, a.planes[ch].data());
+                    out[ch][id] = va + (bilinear_at(tb, b.planes[ch].data()) - va) * w1;
+                }
+            }
+        };
+#if defined(__x86_64__)
+        // Four nodes at a time: each row's inner nodes (a border row's only when the quad owns
+        // that side), then the border nodes the quad owns, as one list.
+        if (avx2 && std::min({a.width, a.height, b.width, b.height}) >= 2) {
+            const Level4 la{&a, inv_a}, lb{&b, inv_b};
+            const bool blend = w1 != 0;
+            edge.x.clear(), edge.y.clear(), edge.ids.clear();
+            const auto list = [&](int32_t r, int32_t c, Vec2 left, Vec2 right) {
+                const Vec2 pos = lerp(left, right, along[c]);
+                edge.x.push_back(pos.x), edge.y.push_back(pos.y);
+                edge.ids.push_back(grid[r * side + c]);
+            };
+            for (int32_t r = 0; r <= m; ++r) {
+                const Vec2 left = lerp(q[0], q[3], double(r) / m);
+                const Vec2 right = lerp(q[1], q[2], double(r) / m);
+                for (const int32_t c : {int32_t{0}, m}) {
+                    if (owns[p] & border_bit(r, c, m)) list(r, c, left, right);
+                }
+                if ((r == 0 || r == m) && !(owns[p] & border_bit(r, 1, m))) continue;
+                if (m - 1 < 4) {
+                    for (int32_t c = 1; c < m; ++c) list(r, c, left, right);
+                } else if (blend) {
+                    sample_row_avx2<true>(la, lb, w1, left, right, along.data(), 1, m,
+                                          grid + r * side, planes.data(), channels);
+                } else {
+                    sample_row_avx2<false>(la, lb, w1, left, right, along.data(), 1, m,
+                                           grid + r * side, planes.data(), channels);
+                }
+            }
+            const auto n = static_cast<int32_t>(edge.ids.size());
+            if (n < 4) {
+                for (int32_t k = 0; k < n; ++k) write({edge.x[k], edge.y[k]}, edge.ids[k]);
+            } else if (blend) {
+                sample_list_avx2<true>(la, lb, w1, edge.x.data(), edge.y.data(), edge.ids.data(), n,
+                                       planes.data(), channels);
+            } else {
+                sample_list_avx2<false>(la, lb, w1, edge.x.data(), edge.y.data(), edge.ids.data(),
+                                        n, planes.data(), channels);
+            }
+            return;
+        }
+#endif
         for (int32_t r = 0; r <= m; ++r) {
             const Vec2 left = lerp(q[0], q[3], double(r) / m);
             const Vec2 right = lerp(q[1], q[2], double(r) / m);
             const bool border_row = r == 0 || r == m;
-            const int32_t* ids = grid + r * side;
-            const auto node = [&](int32_t c) {
-                const int32_t id = ids[c];
-                if ((border_row || c == 0 || c == m) && !(owns[p] & border_bit(r, c, m))) return;
-                const Vec2 pos = lerp(left, right, along[c]);
-                const Tap ta = bilinear_tap(a.width, a.height, inv_a, pos);
-                if (w1 == 0) {
-                    for (int ch = 0; ch < channels; ++ch)
-                        out[ch][id] = bilinear_at(ta, a.planes[ch].data());
-                } else {
-                    const Tap tb = bilinear_tap(b.width, b.height, inv_b, pos);
-                    for (int ch = 0; ch < channels; ++ch) {
-                        const float va = bilinear_at(ta, a.planes[ch].data());
-                        out[ch][id] = va + (bilinear_at(tb, b.planes[ch].data()) - va) * w1;
-                    }
-                }
-            };
-            int32_t c = 0;
-#if defined(__x86_64__)
-            // A row's inner nodes are the quad's alone (no owner to ask), four at a time.
-            if (avx2 && !border_row && w1 == 0 && a.width >= 2 && a.height >= 2) {
-                node(0);
-                c = 1 +
-                    sample_row_avx2(a, inv_a, left, right, along.data(), 1, m, ids, planes.data());
+            for (int32_t c = 0; c <= m; ++c) {
+                if ((border_row || c == 0 || c == m) && !(owns[p] & border_bit(r, c, m))) continue;
+                write(lerp(left, right, along[c]), grid[r * side + c]);
             }
-#endif
-            for (; c <= m; ++c) node(c);
         }
     };
     parallel_for(static_cast<int64_t>(quads.size()), [&](int64_t begin, int64_t end) {
-        for (int64_t p = begin; p < end; ++p) sample_quad(static_cast<size_t>(p));
+        Nodes edge;
+        for (int64_t p = begin; p < end; ++p) sample_quad(static_cast<size_t>(p), edge);
     });
 }
 
