@@ -315,6 +315,12 @@ TEST(ProjectKernels, avx2_and_baseline_builds_give_the_same_bits) {
         for (int32_t k = 0; k < n; ++k) owner[k] = (k % 5 == 3) ? 0.0f : 1.0f;
         EXPECT_EQ(std::bit_cast<uint64_t>(base.dot(a.data(), b.data(), owner.data(), n)),
                   std::bit_cast<uint64_t>(avx2->dot(a.data(), b.data(), owner.data(), n)));
+        std::vector<uint8_t> shared(n);
+        for (int32_t k = 0; k < n; ++k) shared[k] = owner[k] == 0;
+        const double own = base.own_dot(a.data(), b.data(), shared.data(), n);
+        EXPECT_EQ(std::bit_cast<uint64_t>(own),
+                  std::bit_cast<uint64_t>(avx2->own_dot(a.data(), b.data(), shared.data(), n)));
+        EXPECT_EQ(own, base.dot(a.data(), b.data(), owner.data(), n));
 
         const std::vector<float> p = spread_values(n, rng), ap = spread_values(n, rng);
         const std::vector<float> inverse = spread_values(n, rng);

@@ -133,6 +133,8 @@ struct VectorKernels {
     void (*stencil_row)(const float* const* st, const float* g, const int32_t* offset, int32_t n,
                         float* o);
     double (*dot)(const float* a, const float* b, const float* owner, size_t n);
+    // a . b over the entries whose shared[k] is 0 (a quad's own nodes).
+    double (*own_dot)(const float* a, const float* b, const uint8_t* shared, size_t n);
     // One conjugate-gradient step of a channel, in one pass: x += step p, r -= step Ap; returns
     // r.z (z = r / d) and r.r.
     std::pair<double, double> (*step_channel)(float step, float* x, float* r, const float* p,
