@@ -17,20 +17,29 @@
 namespace tesswave {
 namespace {
 
-// 2x2 box averages of `src`; the last row or column of an odd size is repeated.
+// 2x2 box averages of `src`; the last row or column of an odd size is repeated. Rows are shared
+// among the cores.
 Image half_size(const Image& src) {
     const int w = (src.width + 1) / 2, h = (src.height + 1) / 2;
     Image dst = make_image(w, h, src.channels(), src.format);
-    for (int c = 0; c < src.channels(); ++c) {
-        for (int y = 0; y < h; ++y) {
-            const int ya = 2 * y, yb = std::min(2 * y + 1, src.height - 1);
-            for (int x = 0; x < w; ++x) {
-                const int xa = 2 * x, xb = std::min(2 * x + 1, src.width - 1);
-                dst.at(c, x, y) = 0.25f * (src.at(c, xa, ya) + src.at(c, xb, ya) +
-                                           src.at(c, xa, yb) + src.at(c, xb, yb));
+    parallel_for(int64_t{h}, [&](int64_t begin, int64_t end) {
+        for (int c = 0; c < src.channels(); ++c) {
+            for (auto y = static_cast<int>(begin); y < end; ++y) {
+                const int ya = 2 * y, yb = std::min(2 * y + 1, src.height - 1);
+                const float* a = src.planes[c].data() + static_cast<size_t>(ya) * src.width;
+                const float* b = src.planes[c].data() + static_cast<size_t>(yb) * src.width;
+                float* out = dst.planes[c].data() + static_cast<size_t>(y) * w;
+                const int pairs = src.width / 2;  // the columns with a right neighbour
+                for (int x = 0; x < pairs; ++x) {
+                    out[x] = 0.25f * (a[2 * x] + a[2 * x + 1] + b[2 * x] + b[2 * x + 1]);
+                }
+                if (pairs < w) {
+                    const int xa = src.width - 1;
+                    out[pairs] = 0.25f * (a[xa] + a[xa] + b[xa] + b[xa]);
+                }
             }
         }
-    }
+    });
     return dst;
 }
 
