@@ -37,8 +37,38 @@ Planes32 random_coefficients(const CodingLayout& layout, int channels, uint32_t 
     return q;
 }
 
+// Mostly zero: in each band, coefficients at the end of the first block of 64 (the last run of its
+// last block of 16), in the middle of the second, at the end of the third's first run, and about
+// one in 97 elsewhere: the zero blocks' decisions, skips and known last blocks all occur.
+Planes32 sparse_coefficients(const CodingLayout& layout, int channels, uint32_t seed) {
+    std::mt19937 rng(seed);
+    Planes32 q(channels, std::vector<int32_t>(layout.size, 0));
+    for (auto& plane : q) {
+        const auto set = [&](int32_t k) {
+            const auto m = static_cast<int32_t>(1 + rng() % 40);
+            plane[layout.order[k]] = rng() % 2 ? m : -m;
+        };
+        for (const CodingBand& band : layout.bands) {
+            for (const int32_t offset : {63, 64 + 20, 128 + 3}) {
+                if (band.begin + offset < band.end) set(band.begin + offset);
+            }
+            for (int32_t k = band.begin; k < band.end; ++k) {
+                if (rng() % 97 == 0) set(k);
+            }
+        }
+    }
+    return q;
+}
+
 CodingLayout mesh_test_layout() {
     const Hierarchy h = build_hierarchy(grid_mesh(48, 32, 3, 2), {.levels = 3});
+    return mesh_layout(h, 48.0 * 32, 0);
+}
+
+// Layouts whose finest bands are large enough for zero blocks (4096 coefficients and more).
+CodingLayout grid_block_layout() { return grid_layout(200, 100, 2, GridWavelet::cdf97, false); }
+CodingLayout mesh_block_layout() {
+    const Hierarchy h = build_hierarchy(grid_mesh(48, 32, 3, 2), {.levels = 6});
     return mesh_layout(h, 48.0 * 32, 0);
 }
 
@@ -115,13 +145,37 @@ TEST(Bitplane, settled_models_round_trip_and_cost_more_than_fast_start) {
     EXPECT_NE(decode_bitplanes(layout, planes, b, fast).value, q);
 }
 
+// Streams with zero blocks (.twi from version 4, .twv from version 6) and without them (the
+// versions before) each round-trip, on grids and meshes, sparse and dense; they differ, and a
+// stream read the other way decodes to other values.
+TEST(Bitplane, streams_with_and_without_zero_blocks_round_trip) {
+    for (const CodingLayout& layout : {grid_block_layout(), mesh_block_layout()}) {
+        for (const bool sparse : {true, false}) {
+            SCOPED_TRACE(sparse ? "sparse" : "dense");
+            const Planes32 q =
+                sparse ? sparse_coefficients(layout, 3, 21) : random_coefficients(layout, 3, 21);
+            const PlaneCounts planes = count_planes(layout, views(q));
+            const BitplaneOptions blocks{.shifts = std::vector<int>(layout.bands.size(), 0)};
+            BitplaneOptions runs = blocks;
+            runs.blocks = false;
+            const std::vector<uint8_t> a = encode_bitplanes(layout, views(q), planes, blocks);
+            const std::vector<uint8_t> b = encode_bitplanes(layout, views(q), planes, runs);
+            EXPECT_NE(a, b);
+            EXPECT_EQ(decode_bitplanes(layout, planes, a, blocks).value, q);
+            EXPECT_EQ(decode_bitplanes(layout, planes, b, runs).value, q);
+            EXPECT_NE(decode_bitplanes(layout, planes, a, runs).value, q);
+            EXPECT_NE(decode_bitplanes(layout, planes, b, blocks).value, q);
+        }
+    }
+}
+
 // Any prefix determines the high bits of every coefficient it reaches: the decoded magnitude is
 // the true one with the bits below the lowest known plane cleared, and the sign is right.
-TEST(Bitplane, every_prefix_decodes_the_high_bits_it_holds) {
-    const CodingLayout layout = mesh_test_layout();
-    const Planes32 q = random_coefficients(layout, 1, 11);
+void expect_prefixes_decode_high_bits(const CodingLayout& layout, const Planes32& q,
+                                      bool with_blocks) {
     const PlaneCounts planes = count_planes(layout, views(q));
-    const BitplaneOptions options{.shifts = std::vector<int>(layout.bands.size(), 0)};
+    const BitplaneOptions options{.shifts = std::vector<int>(layout.bands.size(), 0),
+                                  .blocks = with_blocks};
     const std::vector<uint8_t> stream = encode_bitplanes(layout, views(q), planes, options);
     size_t previous_known = 0;
     for (size_t n = 0; n <= stream.size(); n += std::max<size_t>(1, stream.size() / 40)) {
@@ -147,38 +201,59 @@ TEST(Bitplane, every_prefix_decodes_the_high_bits_it_holds) {
     }
 }
 
+// Dense and sparse planes (zero blocks), with and without zero blocks.
+TEST(Bitplane, every_prefix_decodes_the_high_bits_it_holds) {
+    for (const bool sparse : {false, true}) {
+        const CodingLayout layout = sparse ? mesh_block_layout() : mesh_test_layout();
+        for (const bool with_blocks : {true, false}) {
+            SCOPED_TRACE(::testing::Message()
+                         << (sparse ? "sparse" : "dense") << ", blocks " << with_blocks);
+            expect_prefixes_decode_high_bits(
+                layout,
+                sparse ? sparse_coefficients(layout, 1, 11) : random_coefficients(layout, 1, 11),
+                with_blocks);
+        }
+    }
+}
+
 // Cut where a sweep's cleanup pass ends, every coefficient still insignificant knows at least the
 // plane of that sweep in its band (the cleanup visits all of them; run mode settles their planes
 // once at the end; the decoder may go on past the cut as far as the bytes determine), on grids and
-// meshes alike, with and without plane shifts. Knowing too much is every_prefix's check.
+// meshes alike, dense and sparse (zero blocks), with and without plane shifts. Knowing too much
+// is every_prefix's check.
 TEST(Bitplane, a_cut_after_a_cleanup_pass_knows_that_plane_everywhere) {
     for (const CodingLayout& layout :
-         {grid_layout(40, 24, 3, GridWavelet::cdf97, false), mesh_test_layout()}) {
-        const Planes32 q = random_coefficients(layout, 2, 5);
-        const PlaneCounts planes = count_planes(layout, views(q));
-        for (const int step : {0, 1}) {
-            std::vector<size_t> ends;
-            BitplaneOptions options{.shifts = std::vector<int>(layout.bands.size(), 0)};
-            for (size_t b = 0; b < options.shifts.size(); ++b)
-                options.shifts[b] = step * static_cast<int>(b % 2);
-            options.pass_ends = &ends;
-            const std::vector<uint8_t> stream = encode_bitplanes(layout, views(q), planes, options);
-            options.pass_ends = nullptr;
-            for (size_t t = 1; 3 * t + 2 < ends.size(); t += 2) {  // sweeps t = 1, 3, ...
-                const size_t cut = ends[3 * t + 2];
-                const DecodedPlanes d =
-                    decode_bitplanes(layout, planes, std::span(stream).first(cut), options);
-                for (size_t c = 0; c < q.size(); ++c) {
-                    for (size_t b = 0; b < layout.bands.size(); ++b) {
-                        const int p = static_cast<int>(t) - options.shifts[b];
-                        // A band's planes run from planes - 1 down: past its last, it is whole.
-                        const int expected = p >= planes[c][b] ? 32 : std::max(p, 0);
-                        for (int32_t k = layout.bands[b].begin; k < layout.bands[b].end; ++k) {
-                            const int32_t id = layout.order[k];
-                            if (d.value[c][id] != 0) continue;
-                            ASSERT_LE(d.known[c][id], expected)
-                                << "channel " << c << ", band " << b << ", sweep " << t
-                                << ", shifts " << step;
+         {grid_layout(40, 24, 3, GridWavelet::cdf97, false), mesh_test_layout(),
+          grid_block_layout(), mesh_block_layout()}) {
+        for (const bool sparse : {false, true}) {
+            const Planes32 q =
+                sparse ? sparse_coefficients(layout, 2, 5) : random_coefficients(layout, 2, 5);
+            const PlaneCounts planes = count_planes(layout, views(q));
+            for (const int step : {0, 1}) {
+                std::vector<size_t> ends;
+                BitplaneOptions options{.shifts = std::vector<int>(layout.bands.size(), 0)};
+                for (size_t b = 0; b < options.shifts.size(); ++b)
+                    options.shifts[b] = step * static_cast<int>(b % 2);
+                options.pass_ends = &ends;
+                const std::vector<uint8_t> stream =
+                    encode_bitplanes(layout, views(q), planes, options);
+                options.pass_ends = nullptr;
+                for (size_t t = 1; 3 * t + 2 < ends.size(); t += 2) {  // sweeps t = 1, 3, ...
+                    const size_t cut = ends[3 * t + 2];
+                    const DecodedPlanes d =
+                        decode_bitplanes(layout, planes, std::span(stream).first(cut), options);
+                    for (size_t c = 0; c < q.size(); ++c) {
+                        for (size_t b = 0; b < layout.bands.size(); ++b) {
+                            const int p = static_cast<int>(t) - options.shifts[b];
+                            // A band's planes run from planes - 1 down: past its last, it is whole.
+                            const int expected = p >= planes[c][b] ? 32 : std::max(p, 0);
+                            for (int32_t k = layout.bands[b].begin; k < layout.bands[b].end; ++k) {
+                                const int32_t id = layout.order[k];
+                                if (d.value[c][id] != 0) continue;
+                                ASSERT_LE(d.known[c][id], expected)
+                                    << "channel " << c << ", band " << b << ", sweep " << t
+                                    << ", shifts " << step << ", sparse " << sparse;
+                            }
                         }
                     }
                 }

@@ -197,7 +197,7 @@ void VideoDecoder::decode_frame(const Chunk& chunk, Image* out) {
     TwvFrame f = frame_of(chunk, what, slot);
     std::vector<Vec2> vertices = frame_vertices(f, what, slot);
     if (next_frame_ == group_.first_frame) coefficients_ = domain_->zeros();
-    add_decoded_residual(*domain_, f, coefficients_, header_.version >= 2);
+    add_decoded_residual(*domain_, f, coefficients_, header_.version);
     previous_ = std::move(vertices_);
     vertices_ = std::move(vertices);
     info_ = {.number = f.number,
@@ -292,8 +292,8 @@ void VideoDecoder::load_lifted_group() {
     }
     next_frame_ = saved_next;
     if (!bands.empty())
-        g.coefficients =
-            decode_lifted_group(*domain_, bands, group_.lifted, temporal_tree(header_));
+        g.coefficients = decode_lifted_group(*domain_, bands, group_.lifted, temporal_tree(header_),
+                                             header_.version);
     lifted_ = std::move(g);
 }
 

@@ -100,9 +100,9 @@ VideoEncoder::GroupCoding VideoEncoder::code_group(const CodingDomain& domain, c
                 for (uint8_t p : channel) empty = empty && p == 0;
             }
             if (empty) continue;
-            const BitplaneOptions bo{.shifts = std::vector<int>(domain.layout().bands.size(), 0),
-                                     .max_bytes = cap,
-                                     .pass_ends = &s.pass_ends};
+            BitplaneOptions bo = twv_stream_options(domain.layout(), header_.version);
+            bo.max_bytes = cap;
+            bo.pass_ends = &s.pass_ends;
             f.stream = encode_bitplanes(domain.layout(), const_spans(q), f.planes, bo);
             s.size = f.stream.size();
             whole += s.size;
@@ -187,7 +187,8 @@ VideoEncoder::GroupCoding VideoEncoder::code_group(const CodingDomain& domain, c
     }
 
     // The decoder's images.
-    std::vector<Planes> y = decode_lifted_group(domain, g.frames, n, temporal_tree(header_));
+    std::vector<Planes> y =
+        decode_lifted_group(domain, g.frames, n, temporal_tree(header_), header_.version);
     g.images.resize(static_cast<size_t>(n));
     synthesize_frames(domain, y, vertices, g.images);
     for (int t = 0; t < n; ++t) {

@@ -261,7 +261,7 @@ std::vector<uint8_t> VideoEncoder::code_frame(const Image& frame, TwvFrame& f, i
     }
     const IntPlanes q = quantize_planes(*domain_, residual_, f.base_step);
     f.planes = count_planes(domain_->layout(), const_spans(q));
-    BitplaneOptions bo{.shifts = std::vector<int>(domain_->layout().bands.size(), 0)};
+    BitplaneOptions bo = twv_stream_options(domain_->layout(), header_.version);
     if (budget >= 0) {
         const int64_t overhead =
             static_cast<int64_t>(twv_chunk('F', write_twv_frame(f, group_)).size());
@@ -272,7 +272,7 @@ std::vector<uint8_t> VideoEncoder::code_frame(const Image& frame, TwvFrame& f, i
         for (uint8_t p : channel) empty = empty && p == 0;
     }
     if (!empty) f.stream = encode_bitplanes(domain_->layout(), const_spans(q), f.planes, bo);
-    add_decoded_residual(*domain_, f, coefficients_);
+    add_decoded_residual(*domain_, f, coefficients_, header_.version);
     domain_->synthesize(coefficients_, vertices_, reconstruction_);
     return twv_chunk('F', write_twv_frame(f, group_));
 }

@@ -56,11 +56,16 @@ std::vector<Vec2> window_vertices(std::span<const Vec2> canvas, const TwvFrame& 
     return out;
 }
 
+BitplaneOptions twv_stream_options(const CodingLayout& layout, int version) {
+    return {.shifts = std::vector<int>(layout.bands.size(), 0),
+            .fast_start = version >= 2,
+            .blocks = version >= 6};
+}
+
 void add_decoded_residual(const CodingDomain& domain, const TwvFrame& frame, Planes& x,
-                          bool fast_start) {
+                          int version) {
     const CodingLayout& layout = domain.layout();
-    const BitplaneOptions options{.shifts = std::vector<int>(layout.bands.size(), 0),
-                                  .fast_start = fast_start};
+    const BitplaneOptions options = twv_stream_options(layout, version);
     const DecodedPlanes d = decode_bitplanes(layout, frame.planes, frame.stream, options);
     std::vector<float> r(layout.size);
     for (size_t c = 0; c < x.size(); ++c) {
@@ -75,7 +80,7 @@ TemporalTree temporal_tree(const TwvHeader& header) {
 }
 
 std::vector<Planes> decode_lifted_group(const CodingDomain& domain, std::span<const TwvFrame> bands,
-                                        int frames, TemporalTree tree) {
+                                        int frames, TemporalTree tree, int version) {
     if (frames < 1 || bands.size() > static_cast<size_t>(frames)) {
         throw Error("lifted group: more bands than frames");
     }
@@ -100,7 +105,7 @@ std::vector<Planes> decode_lifted_group(const CodingDomain& domain, std::span<co
     }
     parallel_for(static_cast<int64_t>(shares), [&](int64_t begin, int64_t end) {
         for (auto k = static_cast<size_t>(begin); k < static_cast<size_t>(end); ++k) {
-            for (size_t t : share[k]) add_decoded_residual(domain, bands[t], x[t]);
+            for (size_t t : share[k]) add_decoded_residual(domain, bands[t], x[t], version);
         }
     });
     temporal_inverse(x, temporal_levels(frames, tree), tree);

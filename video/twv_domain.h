@@ -28,10 +28,13 @@ std::shared_ptr<const CodingDomain> group_domain(const TwvHeader& header, const 
 // Decodes a frame's bit-planes and adds the dequantized residual to `coefficients` (the previous
 // frame's decoded coefficients, or zeros for an intra frame): the one step the encoder and the
 // decoder share, so that both hold the same coefficients to the bit.
-// `fast_start`: the coder's models learn fast while fresh (version 2 files and later;
-// range_coder.h).
+// How the bit-plane streams of a file of this version are coded: models that learn fast while
+// fresh from version 2 (range_coder.h), zero blocks from version 6 (bitplane.h).
+BitplaneOptions twv_stream_options(const CodingLayout& layout, int version);
+
+// `version`: the file's (twv_stream_options).
 void add_decoded_residual(const CodingDomain& domain, const TwvFrame& frame, Planes& coefficients,
-                          bool fast_start = true);
+                          int version);
 
 // A lifted group's frame coefficients from its temporal bands: bands[t] is slot t, slots from
 // bands.size() up to `frames` (a group cut short) are zero; then the temporal inverse. The one
@@ -42,7 +45,7 @@ Vec2 window_offset(int32_t left, int32_t top);
 std::vector<Vec2> window_vertices(std::span<const Vec2> canvas, const TwvFrame& frame);
 
 std::vector<Planes> decode_lifted_group(const CodingDomain& domain, std::span<const TwvFrame> bands,
-                                        int frames, TemporalTree tree);
+                                        int frames, TemporalTree tree, int version);
 
 // The temporal tree of a file's lifted groups: dyadic before version 4, bisection from it.
 TemporalTree temporal_tree(const TwvHeader& header);

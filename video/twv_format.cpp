@@ -11,7 +11,7 @@
 namespace tesswave::video {
 namespace {
 
-constexpr uint32_t kVersion = 5;
+constexpr uint32_t kVersion = 6;
 constexpr uint8_t kRepeatsFollow = 0x80;  // in a frame's kind byte (version 5)
 
 void write_u64(ByteWriter& w, uint64_t v) {

@@ -33,7 +33,8 @@
 // A file cut anywhere decodes up to its last whole frame chunk (readers scan when the trailer is
 // missing); in a lifted group, the frames whose chunks arrived, the missing bands taken as zero.
 // Version 1 files (no lifted groups), version 2 files (no canvas), version 3 files (the lifted
-// mesh wavelet only) and version 4 files (no repeated frames) are read as before.
+// mesh wavelet only), version 4 files (no repeated frames) and version 5 files (bit-plane streams
+// without zero blocks, bitplane.h) are read as before.
 #pragma once
 
 #include <algorithm>
@@ -55,7 +56,7 @@ struct TwvHeader {
     int width = 0, height = 0;
     int fps_num = 25, fps_den = 1;
     int channels = 3, bit_depth = 8;
-    int version = 5;  // as read; written files are version 5
+    int version = 6;  // as read; written files are version 6
     double fps() const { return static_cast<double>(fps_num) / fps_den; }
 };
 

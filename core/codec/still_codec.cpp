@@ -128,7 +128,7 @@ IntPlanes integer_values(const DecodedPlanes& d) {
 }
 
 Image reconstruct(const CodingDomain& domain, const TwiHeader& h, std::span<const uint8_t> stream) {
-    const BitplaneOptions bo{.shifts = h.shifts, .fast_start = h.version >= 2};
+    const BitplaneOptions bo = twi_stream_options(h);
     DecodedPlanes d = decode_bitplanes(domain.layout(), h.planes, stream, bo);
     if (h.lossless) return domain.synthesize_int(integer_values(d));
     Planes x(h.channels);
@@ -175,7 +175,7 @@ Coded code(const CodingDomain& domain, const TwiHeader& base, IntPlanes q, const
     h.planes = count_planes(domain.layout(), const_spans(q));
     c.head = write_twi_header(h);
     h.header_bytes = c.head.size();
-    BitplaneOptions bo{.shifts = h.shifts};
+    BitplaneOptions bo = twi_stream_options(h);
     if (o.max_bytes > 0) {
         if (o.max_bytes <= static_cast<int64_t>(c.head.size())) {
             throw Error(str("a budget of ", o.max_bytes, " bytes does not hold the ", c.head.size(),
@@ -451,7 +451,7 @@ std::vector<std::vector<int32_t>> decode_lossless_samples(std::span<const uint8_
     const auto shared = shared_domain(still_shape(h), 0, h.band_norms);
     const CodingDomain& domain = *shared;
     const DecodedPlanes d = decode_bitplanes(domain.layout(), h.planes,
-                                             file.subspan(h.header_bytes), {.shifts = h.shifts});
+                                             file.subspan(h.header_bytes), twi_stream_options(h));
     return domain.inverse_int(integer_values(d));
 }
 

@@ -19,7 +19,7 @@ namespace tesswave {
 namespace {
 
 constexpr uint8_t kMagic[4] = {'T', 'W', 'I', 0x1A};
-constexpr uint32_t kVersion = 3;
+constexpr uint32_t kVersion = 4;
 constexpr double kVertexUnit = 256.0;
 constexpr int64_t kMaxCoordinate = int64_t{1} << 40;  // in vertex units, either sign
 
@@ -257,6 +257,11 @@ int coding_band_count(TwiTransform transform, MeshWavelet wavelet, int levels, i
 
 int expected_bands(const TwiHeader& h) {
     return coding_band_count(h.transform, h.mesh_wavelet, h.levels, h.width, h.height);
+}
+
+BitplaneOptions twi_stream_options(const TwiHeader& header) {
+    return {
+        .shifts = header.shifts, .fast_start = header.version >= 2, .blocks = header.version >= 4};
 }
 
 std::vector<uint8_t> write_twi_header(const TwiHeader& h) {

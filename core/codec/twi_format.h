@@ -1,12 +1,13 @@
 // The .twi still-image file: a header (fields below, CRC-32 protected) followed by the embedded
 // bit-plane stream, which runs to the end of the file. Any cut of the stream is a valid file.
+// Version 4 streams code zero blocks; earlier ones are read as before (twi_stream_options).
 //
 //   magic "TWI" 0x1A | version u8 | flags u8 (bit 0 lossless) | transform u8 (0 mesh, 1 grid 5/3,
 //   2 grid 9/7) | colour u8 (0 none, 1 YCbCr, 2 YCoCg-R) | channels u8 | bit depth u8 |
 //   width, height varint | levels u8 |
 //   mesh path only: placement u8 (0 domain = pixel rectangle, 1 vertices on pixel centres, a
 //     grid whose size follows from the image and J) |
-//     mesh kind u8: 0 grid (columns, rows varint; version 3: mesh wavelet u8, 0 the lifted
+//     mesh kind u8: 0 grid (columns, rows varint; from version 3: mesh wavelet u8, 0 the lifted
 //     bilinear, 1 the 9/7 on the lattice of T_J's samples, for lossy area placement) or 1 explicit
 //     (vertex count, coordinates as zigzag varint deltas in 1/256 pixel; face count, per face its
 //     corner count and zigzag varint deltas of the corner ids; feature count, feature edges as
@@ -35,7 +36,7 @@ enum class TwiColour : uint8_t { none = 0, ycbcr = 1, ycocg_r = 2 };
 enum class MeshPlacement : uint8_t { area = 0, centres = 1 };
 
 struct TwiHeader {
-    int version = 3;  // as read; written files are version 3
+    int version = 4;  // as read; written files are version 4
     TwiTransform transform = TwiTransform::mesh;
     bool lossless = false;
     TwiColour colour = TwiColour::none;
@@ -92,6 +93,10 @@ int64_t twi_bytes_needed(int64_t pixels, int64_t samples, const TwiLimits& limit
 void round_mesh_vertices(Mesh& mesh);
 
 std::vector<uint8_t> write_twi_header(const TwiHeader& header);
+
+// How the stream after this header is coded: its bands' shifts, models that learn fast while
+// fresh from version 2 (range_coder.h), zero blocks from version 4 (bitplane.h).
+BitplaneOptions twi_stream_options(const TwiHeader& header);
 
 // Reads and checks the header; `name` prefixes messages. The sizes are checked against the limits
 // and against the bytes of `file` (the whole file) before anything is allocated for them, and the
