@@ -9,6 +9,7 @@
 #include <cstdlib>
 #include <limits>
 #include <random>
+#include <utility>
 
 #include "core/math/error.h"
 #include "core/math/grid_mesh.h"
@@ -128,21 +129,32 @@ TEST(Bitplane, computed_grid_relations_code_as_the_listed_ones) {
     }
 }
 
+// Codes q with the options x and with y: each stream round-trips, and each read with the other's
+// options decodes to other values. Returns the two streams.
+std::pair<std::vector<uint8_t>, std::vector<uint8_t>> expect_two_codings(const CodingLayout& layout,
+                                                                         const Planes32& q,
+                                                                         const BitplaneOptions& x,
+                                                                         const BitplaneOptions& y) {
+    const PlaneCounts planes = count_planes(layout, views(q));
+    std::vector<uint8_t> a = encode_bitplanes(layout, views(q), planes, x);
+    std::vector<uint8_t> b = encode_bitplanes(layout, views(q), planes, y);
+    EXPECT_EQ(decode_bitplanes(layout, planes, a, x).value, q);
+    EXPECT_EQ(decode_bitplanes(layout, planes, b, y).value, q);
+    EXPECT_NE(decode_bitplanes(layout, planes, a, y).value, q);
+    EXPECT_NE(decode_bitplanes(layout, planes, b, x).value, q);
+    return {std::move(a), std::move(b)};
+}
+
 // Version 1 files' streams had models adapting at their settled rates from the start: with
 // fast_start false both sides code that way, and the stream is longer than a fast-start one.
 TEST(Bitplane, settled_models_round_trip_and_cost_more_than_fast_start) {
     const CodingLayout layout = mesh_test_layout();
-    const Planes32 q = random_coefficients(layout, 3, 5);
-    const PlaneCounts planes = count_planes(layout, views(q));
     const BitplaneOptions fast{.shifts = std::vector<int>(layout.bands.size(), 0)};
     BitplaneOptions settled = fast;
     settled.fast_start = false;
-    const std::vector<uint8_t> a = encode_bitplanes(layout, views(q), planes, fast);
-    const std::vector<uint8_t> b = encode_bitplanes(layout, views(q), planes, settled);
+    const auto [a, b] =
+        expect_two_codings(layout, random_coefficients(layout, 3, 5), fast, settled);
     EXPECT_LT(a.size(), b.size());
-    EXPECT_EQ(decode_bitplanes(layout, planes, b, settled).value, q);
-    EXPECT_EQ(decode_bitplanes(layout, planes, a, fast).value, q);
-    EXPECT_NE(decode_bitplanes(layout, planes, b, fast).value, q);
 }
 
 // Streams with zero blocks (.twi from version 4, .twv from version 6) and without them (the
@@ -154,17 +166,11 @@ TEST(Bitplane, streams_with_and_without_zero_blocks_round_trip) {
             SCOPED_TRACE(sparse ? "sparse" : "dense");
             const Planes32 q =
                 sparse ? sparse_coefficients(layout, 3, 21) : random_coefficients(layout, 3, 21);
-            const PlaneCounts planes = count_planes(layout, views(q));
             const BitplaneOptions blocks{.shifts = std::vector<int>(layout.bands.size(), 0)};
             BitplaneOptions runs = blocks;
             runs.blocks = false;
-            const std::vector<uint8_t> a = encode_bitplanes(layout, views(q), planes, blocks);
-            const std::vector<uint8_t> b = encode_bitplanes(layout, views(q), planes, runs);
+            const auto [a, b] = expect_two_codings(layout, q, blocks, runs);
             EXPECT_NE(a, b);
-            EXPECT_EQ(decode_bitplanes(layout, planes, a, blocks).value, q);
-            EXPECT_EQ(decode_bitplanes(layout, planes, b, runs).value, q);
-            EXPECT_NE(decode_bitplanes(layout, planes, a, runs).value, q);
-            EXPECT_NE(decode_bitplanes(layout, planes, b, blocks).value, q);
         }
     }
 }
