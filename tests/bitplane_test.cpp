@@ -175,6 +175,39 @@ TEST(Bitplane, streams_with_and_without_zero_blocks_round_trip) {
     }
 }
 
+// Without zero blocks the coder writes the bytes of the streams in .twi files before version 4 and
+// .twv files before version 6, which it must go on reading: the FNV-1a hashes below are of the
+// streams that the build before zero blocks (9922ede) wrote for the same planes.
+TEST(Bitplane, streams_without_zero_blocks_are_the_earlier_versions_bytes) {
+    const auto fnv1a = [](const std::vector<uint8_t>& bytes) {
+        uint64_t h = 1469598103934665603ull;
+        for (const uint8_t b : bytes) h = (h ^ b) * 1099511628211ull;
+        return h;
+    };
+    struct Golden {
+        size_t size;
+        uint64_t hash;
+    };
+    const Golden golden[] = {{24449, 0xad3d44c3598d472full},
+                             {1287, 0xc2c62b31b3e96f38ull},
+                             {30200, 0x8f930f1c1ca846beull},
+                             {1594, 0x770f5bb44956a7b6ull}};
+    int i = 0;
+    for (const CodingLayout& layout : {grid_block_layout(), mesh_block_layout()}) {
+        for (const bool sparse : {false, true}) {
+            const Planes32 q =
+                sparse ? sparse_coefficients(layout, 3, 21) : random_coefficients(layout, 3, 21);
+            const BitplaneOptions runs{.shifts = std::vector<int>(layout.bands.size(), 0),
+                                       .blocks = false};
+            const std::vector<uint8_t> stream =
+                encode_bitplanes(layout, views(q), count_planes(layout, views(q)), runs);
+            EXPECT_EQ(stream.size(), golden[i].size) << i;
+            EXPECT_EQ(fnv1a(stream), golden[i].hash) << i;
+            ++i;
+        }
+    }
+}
+
 // Any prefix determines the high bits of every coefficient it reaches: the decoded magnitude is
 // the true one with the bits below the lowest known plane cleared, and the sign is right.
 void expect_prefixes_decode_high_bits(const CodingLayout& layout, const Planes32& q,
@@ -207,18 +240,16 @@ void expect_prefixes_decode_high_bits(const CodingLayout& layout, const Planes32
     }
 }
 
-// Dense and sparse planes (zero blocks), with and without zero blocks.
+// Dense planes on a small mesh; sparse ones (zero blocks) on a grid and a mesh with bands of
+// 4096 coefficients and more; with and without zero blocks.
 TEST(Bitplane, every_prefix_decodes_the_high_bits_it_holds) {
-    for (const bool sparse : {false, true}) {
-        const CodingLayout layout = sparse ? mesh_block_layout() : mesh_test_layout();
-        for (const bool with_blocks : {true, false}) {
-            SCOPED_TRACE(::testing::Message()
-                         << (sparse ? "sparse" : "dense") << ", blocks " << with_blocks);
-            expect_prefixes_decode_high_bits(
-                layout,
-                sparse ? sparse_coefficients(layout, 1, 11) : random_coefficients(layout, 1, 11),
-                with_blocks);
-        }
+    const CodingLayout small = mesh_test_layout(), grid = grid_block_layout(),
+                       mesh = mesh_block_layout();
+    for (const bool with_blocks : {true, false}) {
+        SCOPED_TRACE(::testing::Message() << "blocks " << with_blocks);
+        expect_prefixes_decode_high_bits(small, random_coefficients(small, 1, 11), with_blocks);
+        expect_prefixes_decode_high_bits(grid, sparse_coefficients(grid, 1, 11), with_blocks);
+        expect_prefixes_decode_high_bits(mesh, sparse_coefficients(mesh, 1, 11), with_blocks);
     }
 }
 

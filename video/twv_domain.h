@@ -25,14 +25,14 @@ using tesswave::Planes;
 std::shared_ptr<const CodingDomain> group_domain(const TwvHeader& header, const TwvGroup& group,
                                                  bool measure_norms);
 
-// Decodes a frame's bit-planes and adds the dequantized residual to `coefficients` (the previous
-// frame's decoded coefficients, or zeros for an intra frame): the one step the encoder and the
-// decoder share, so that both hold the same coefficients to the bit.
 // How the bit-plane streams of a file of this version are coded: models that learn fast while
 // fresh from version 2 (range_coder.h), zero blocks from version 6 (bitplane.h).
 BitplaneOptions twv_stream_options(const CodingLayout& layout, int version);
 
-// `version`: the file's (twv_stream_options).
+// Decodes a frame's bit-planes and adds the dequantized residual to `coefficients` (the previous
+// frame's decoded coefficients, or zeros for an intra frame): the one step the encoder and the
+// decoder share, so that both hold the same coefficients to the bit. `version`: the file's
+// (twv_stream_options).
 void add_decoded_residual(const CodingDomain& domain, const TwvFrame& frame, Planes& coefficients,
                           int version);
 

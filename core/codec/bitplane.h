@@ -1,8 +1,9 @@
 // The embedded bit-plane coder (DESIGN.md 2.6): quantized coefficients, most significant plane
 // first, each plane in three passes per band and channel as in EBCOT: significance of the
 // coefficients with a significant neighbour or parent, refinement of the significant ones, then
-// significance of the rest (isolated coefficients four at a time in run mode, and in zero blocks
-// of 64 and 16 before that, so that a sparse plane costs few decisions). Every binary decision goes
+// significance of the rest (isolated coefficients four at a time in run mode, and in bands of
+// 4096 coefficients or more in zero blocks of 64 and 16 before that, so that a sparse plane costs
+// few decisions). Every binary decision goes
 // through the adaptive range coder with a context from the band, the channel class, and how many
 // neighbours and parents are significant. Any prefix of the stream decodes to the coefficients it
 // determines; the rest stay zero, and each coefficient is reconstructed 3/8 into the interval its
@@ -37,9 +38,10 @@ struct BitplaneOptions {
     // Fresh probability models learn fast (range_coder.h); false for the streams of .twi and .twv
     // version 1, whose models adapted at their settled rates from the start.
     bool fast_start = true;
-    // Zero blocks: in the third pass, runs of 64 and then 16 isolated coefficients are each coded
-    // by one decision before their runs of 4; false for the streams of .twi versions 1 to 3 and
-    // .twv versions 1 to 5, which code runs of 4 only.
+    // Zero blocks: in the third pass over a band of 4096 coefficients or more, 64 and then 16
+    // isolated coefficients take one decision (none for the last smaller block of a block that
+    // holds a significant one, when the others held none) before their runs of 4; false for the
+    // streams of .twi versions 1 to 3 and .twv versions 1 to 5, which code runs of 4 only.
     bool blocks = true;
 };
 
