@@ -407,7 +407,7 @@ class Traversal {
     // that has one, after its other runs had none), so that decision is not coded. `in_block`:
     // the run lies in a block of kBlock[1] that holds one, and takes its own model.
     int run(BandModels& m, uint8_t* state, Value* value, uint8_t* known, int32_t k, int p,
-            bool forced, int in_block) {
+            bool forced, bool in_block) {
         run_known_ = 0;
         int first = kRun;
         if constexpr (std::is_same_v<Side, EncodeSide>) {

@@ -3,11 +3,10 @@
 // coefficients with a significant neighbour or parent, refinement of the significant ones, then
 // significance of the rest (isolated coefficients four at a time in run mode, and in bands of
 // 4096 coefficients or more in zero blocks of 64 and 16 before that, so that a sparse plane costs
-// few decisions). Every binary decision goes
-// through the adaptive range coder with a context from the band, the channel class, and how many
-// neighbours and parents are significant. Any prefix of the stream decodes to the coefficients it
-// determines; the rest stay zero, and each coefficient is reconstructed 3/8 into the interval its
-// known bits leave open.
+// few decisions). Every binary decision goes through the adaptive range coder with a context from
+// the band, the channel class, and how many neighbours and parents are significant. Any prefix of
+// the stream decodes to the coefficients it determines; the rest stay zero, and each coefficient
+// is reconstructed 3/8 into the interval its known bits leave open.
 #pragma once
 
 #include <cstdint>
