@@ -50,15 +50,21 @@ namespace {
     }
 }
 
+// Adds (a[k] w[k]) b[k] to sum[k mod 4] for k < n: the four sums of dot and own_dot.
+[[gnu::always_inline]] inline void add_products(double* __restrict sum, const float* __restrict a,
+                                                const float* __restrict w,
+                                                const float* __restrict b, size_t n) {
+    const size_t whole = n - n % 4;
+    for (size_t k = 0; k < whole; k += 4) {
+        for (int i = 0; i < 4; ++i) sum[i] += static_cast<double>(a[k + i] * w[k + i]) * b[k + i];
+    }
+    for (size_t k = whole; k < n; ++k) sum[k % 4] += static_cast<double>(a[k] * w[k]) * b[k];
+}
+
 [[gnu::always_inline]] inline double dot_body(const float* __restrict a, const float* __restrict b,
                                               const float* __restrict owner, size_t n) {
     double sum[4] = {0, 0, 0, 0};
-    const size_t whole = n - n % 4;
-    for (size_t k = 0; k < whole; k += 4) {
-        for (int i = 0; i < 4; ++i)
-            sum[i] += static_cast<double>(a[k + i] * owner[k + i]) * b[k + i];
-    }
-    for (size_t k = whole; k < n; ++k) sum[k % 4] += static_cast<double>(a[k] * owner[k]) * b[k];
+    add_products(sum, a, owner, b, n);
     return (sum[0] + sum[1]) + (sum[2] + sum[3]);
 }
 
@@ -73,15 +79,7 @@ namespace {
     for (size_t from = 0; from < n; from += kBlock) {
         const size_t count = std::min(kBlock, n - from);
         for (size_t j = 0; j < count; ++j) own[j] = shared[from + j] == 0 ? 1.0f : 0.0f;
-        const float* x = a + from;
-        const float* y = b + from;
-        const size_t whole = count - count % 4;
-        for (size_t j = 0; j < whole; j += 4) {
-            for (int i = 0; i < 4; ++i)
-                sum[i] += static_cast<double>(x[j + i] * own[j + i]) * y[j + i];
-        }
-        for (size_t j = whole; j < count; ++j)
-            sum[j % 4] += static_cast<double>(x[j] * own[j]) * y[j];
+        add_products(sum, a + from, own, b + from, count);  // from is a multiple of 4
     }
     return (sum[0] + sum[1]) + (sum[2] + sum[3]);
 }
