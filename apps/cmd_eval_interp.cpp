@@ -96,8 +96,8 @@ Image rgb(Image image) {
 }
 
 // "inbetween" is `tesswave inbetween`: linear with the flow fallback (morph/inbetween.h).
-const char* const kMethods[] = {"cross-dissolve", "linear",    "bands",
-                                "sharp",          "inbetween", "minterpolate"};
+const char* const kInterpMethods[] = {"cross-dissolve", "linear",    "bands",
+                                      "sharp",          "inbetween", "minterpolate"};
 
 struct EvalArgs {
     std::vector<std::string> dirs;
@@ -116,7 +116,7 @@ void run_eval(const EvalArgs& a) {
     std::pair<double, double> seconds;  // inbetween, minterpolate
     ProgressBar bar;
     std::printf("%-16s", "sequence");
-    for (const char* m : kMethods) std::printf(" %15s", m);
+    for (const char* m : kInterpMethods) std::printf(" %15s", m);
     std::printf("   (PSNR dB / SSIM)\n");
     for (size_t s = 0; s < seqs.size(); ++s) {
         const Sequence& q = seqs[s];
@@ -161,19 +161,19 @@ void run_eval(const EvalArgs& a) {
         std::printf("%-16s", q.name.c_str());
         for (size_t m = 0; m < results.size(); ++m) {
             const double p = psnr(truth, results[m]).all, ss = ssim(truth, results[m]).all;
-            row["methods"][kMethods[m]] = {{"psnr", p}, {"ssim", ss}};
-            sums[kMethods[m]].first += p;
-            sums[kMethods[m]].second += ss;
+            row["methods"][kInterpMethods[m]] = {{"psnr", p}, {"ssim", ss}};
+            sums[kInterpMethods[m]].first += p;
+            sums[kInterpMethods[m]].second += ss;
             std::printf("   %6.2f/%.4f", p, ss);
             tiles.push_back(results[m]);
-            captions.push_back(str(kMethods[m], " ", std::lround(p * 100) / 100.0, " dB"));
+            captions.push_back(str(kInterpMethods[m], " ", std::lround(p * 100) / 100.0, " dB"));
         }
         std::printf("\n");
         tiles.push_back(make_image(1, 1, 3));
         captions.push_back("error x4:");
         for (size_t m = 0; m < results.size(); ++m) {
             tiles.push_back(error_map(results[m], truth));
-            captions.push_back(kMethods[m]);
+            captions.push_back(kInterpMethods[m]);
         }
         write_image(contact_sheet(tiles, captions, {.columns = 7}),
                     (dir / str("sheet_", q.name, ".png")).string());
@@ -181,7 +181,7 @@ void run_eval(const EvalArgs& a) {
     }
     bar.update(1.0, "done");
     std::printf("%-16s", "average");
-    for (const char* m : kMethods) {
+    for (const char* m : kInterpMethods) {
         const double p = sums[m].first / seqs.size(), ss = sums[m].second / seqs.size();
         report["average"][m] = {{"psnr", p}, {"ssim", ss}};
         std::printf("   %6.2f/%.4f", p, ss);
