@@ -56,8 +56,8 @@ test)
 sanitize|fuzz)
     DEBIAN_FRONTEND=noninteractive $([[ $(id -u) -eq 0 ]] || echo sudo) apt-get install -y -qq clang >/dev/null
     # One clang tree with AddressSanitizer and UBSan (build-fuzz): the whole test suite and the
-    # libFuzzer targets. sanitize builds it all and runs every test (about 5 minutes to build and
-    # 14 to run on 2 cores); fuzz builds only the four targets (nothing after sanitize).
+    # libFuzzer targets. sanitize builds it all and runs every test (about 4 minutes to build and
+    # 12 to run on 2 cores); fuzz builds only the four targets (nothing after sanitize).
     fuzzers=(mesh_fuzz points_fuzz twi_fuzz twv_fuzz)
     targets=()
     [[ $job == fuzz ]] && targets=(-- --target "${fuzzers[@]}")
